@@ -1,0 +1,48 @@
+// fuse-eval: evaluates an estimated trajectory against ground truth with evo's ATE / RPE
+// definitions plus terminal drift (docs/evaluation-metrics.md). Prints "name: value" lines or
+// one JSON object on stdout; any bad input gives a message on stderr and exit code 2.
+#include <exception>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "arguments.hpp"
+#include "fuse/eval/evaluate.hpp"
+#include "fuse/eval/trajectory.hpp"
+
+namespace {
+
+constexpr int kExitOk = 0;
+constexpr int kExitBadInput = 2;
+
+int run(const fuse::eval_tool::Arguments& args) {
+  const fuse::eval::Trajectory gt = fuse::eval::read_trajectory(args.gt_path, args.format);
+  const fuse::eval::Trajectory est = fuse::eval::read_trajectory(args.est_path, args.format);
+  const fuse::eval::EvaluationResult result = fuse::eval::evaluate(gt, est, args.config);
+  std::cout << (args.json ? fuse::eval::format_json(result) : fuse::eval::format_text(result));
+  return kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  fuse::eval_tool::Arguments args;
+  try {
+    args = fuse::eval_tool::parse_arguments(std::vector<std::string>(argv + 1, argv + argc));
+  } catch (const std::exception& e) {
+    std::cerr << "fuse-eval: " << e.what() << "\n" << fuse::eval_tool::usage();
+    return kExitBadInput;
+  }
+  if (args.help) {
+    std::cout << fuse::eval_tool::usage();
+    return kExitOk;
+  }
+  try {
+    return run(args);
+  } catch (const std::exception& e) {
+    std::cerr << "fuse-eval: " << e.what() << "\n";
+  } catch (...) {
+    std::cerr << "fuse-eval: unknown error\n";
+  }
+  return kExitBadInput;
+}
