@@ -1,0 +1,32 @@
+// IMU propagation of the nominal state and the error-state covariance (DESIGN §1, Φ_k):
+//   R' = R·Exp((ω_m − b_g)·dt),  a_W = R·(a_m − b_a) + g,
+//   p' = p + v·dt + ½·a_W·dt²,   v' = v + a_W·dt,
+//   P' = F·P·Fᵀ + G·Q·Gᵀ   (right-perturbation error-state Jacobians, see propagate()).
+#pragma once
+
+#include <Eigen/Core>
+
+#include "fuse/core/config.hpp"
+#include "fuse/estimation/state.hpp"
+
+namespace fuse {
+
+/// Continuous-time IMU noise densities (datasheet units).
+struct ImuNoiseConfig {
+  double gyro_noise_density = 1.0e-4;   ///< rad/s/√Hz
+  double accel_noise_density = 1.5e-3;  ///< m/s²/√Hz
+  double gyro_bias_random_walk = 3.0e-5;   ///< rad/s²/√Hz
+  double accel_bias_random_walk = 5.0e-4;  ///< m/s³/√Hz
+  /// Multiplies every density: covers unmodelled effects (vibration, integration error).
+  double inflation = 1.0;
+  bool propagate_covariance = true;  ///< ablation switch: false keeps P at its prior value
+
+  void load(ConfigNode& node);
+};
+
+/// One IMU step of length dt with the (already averaged) measurement (gyro, accel).
+/// When P is given it is propagated too.
+void propagate(NavState& x, StateCovariance* P, const Eigen::Vector3d& gyro, const Eigen::Vector3d& accel,
+               double dt, const ImuNoiseConfig& noise);
+
+}  // namespace fuse

@@ -1,0 +1,41 @@
+// The LiDAR measurement model: point-to-plane residuals (DESIGN §1)
+//   r_j = nᵀ(R_WI (R_IL p_L + p_IL) + p_WI) + d
+// with Jacobians over [δp, δθ, δθ_IL, δp_IL] (right perturbations; q = R_IL p_L + p_IL):
+//   ∂r/∂δp = nᵀ,  ∂r/∂δθ = (q × R_WIᵀn)ᵀ,  ∂r/∂δθ_IL = (p_L × R_ILᵀR_WIᵀn)ᵀ,  ∂r/∂δp_IL = nᵀR_WI.
+// Associates against the map on the first iterations and re-screens the kept planes afterwards.
+#pragma once
+
+#include <vector>
+
+#include "fuse/association/associator.hpp"
+#include "fuse/estimation/measurement_model.hpp"
+
+namespace fuse {
+
+/// Jacobian row of one constraint at state x (12 columns, the observed block).
+Eigen::Matrix<double, 1, kObsDim> point_to_plane_jacobian(const NavState& x, const Constraint& c);
+/// Residual of one constraint at state x.
+double point_to_plane_residual(const NavState& x, const Constraint& c);
+
+class PointToPlaneModel final : public MeasurementModel {
+ public:
+  struct Config {
+    double point_sigma = 0.05;        ///< m, standard deviation of a point-to-plane residual
+    int reassociate_iterations = 2;   ///< iterations that search the map again (then only re-screen)
+    bool extrinsic_jacobian = false;  ///< fill the extrinsic columns (when the extrinsic is estimated)
+  };
+  PointToPlaneModel(const Config& config, const std::vector<Eigen::Vector3f>& points_L, const SpatialIndex& map,
+                    const Associator& associator, ConstraintSet& constraints)
+      : config_(config), points_L_(points_L), map_(map), associator_(associator), constraints_(constraints) {}
+
+  bool linearize(const NavState& x, int iteration, LinearSystem& out) override;
+
+ private:
+  Config config_;
+  const std::vector<Eigen::Vector3f>& points_L_;
+  const SpatialIndex& map_;
+  const Associator& associator_;
+  ConstraintSet& constraints_;
+};
+
+}  // namespace fuse

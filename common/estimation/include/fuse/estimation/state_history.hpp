@@ -1,0 +1,83 @@
+// Temporal role (DESIGN §1): a bounded time history of (t, x, P) written by IMU propagation.
+// Any time it covers can be queried (interpolated on the manifold); a posterior at a past time
+// replaces the entry there and every later entry is re-propagated from the stored IMU samples.
+#pragma once
+
+#include <deque>
+#include <vector>
+
+#include "fuse/core/config.hpp"
+#include "fuse/core/types.hpp"
+#include "fuse/estimation/imu_propagation.hpp"
+#include "fuse/estimation/state.hpp"
+
+namespace fuse {
+
+enum class QueryStatus {
+  kNotInitialised,  ///< no state yet (static initialisation not finished)
+  kCorrected,       ///< at or before the last LiDAR correction: interpolated in corrected history
+  kPropagated,      ///< after the last correction, up to the newest IMU sample: IMU-only prediction
+  kTooOld,          ///< before the oldest entry kept
+  kInFuture,        ///< after the newest IMU sample
+};
+const char* to_string(QueryStatus status);
+
+struct StateQuery {
+  QueryStatus status = QueryStatus::kNotInitialised;
+  double t = 0.0;
+  NavState x;
+  StateCovariance P = StateCovariance::Zero();
+  bool ok() const { return status == QueryStatus::kCorrected || status == QueryStatus::kPropagated; }
+};
+
+struct StateHistoryConfig {
+  double length_s = 5.0;  ///< how far back states are kept (late scans older than this are refused)
+  void load(ConfigNode& node);
+};
+
+class StateHistory {
+ public:
+  struct Entry {
+    double t;
+    NavState x;
+    StateCovariance P;
+    Eigen::Vector3d gyro, accel;  ///< the IMU measurement held from t on
+  };
+
+  StateHistory(const StateHistoryConfig& config, const ImuNoiseConfig& noise) : config_(config), noise_(noise) {}
+
+  /// Starts the history at time t (static initialisation result).
+  void reset(double t, const NavState& x, const StateCovariance& P, const ImuSample& held);
+  bool initialised() const { return !entries_.empty(); }
+
+  /// Propagates the newest entry to imu.t with the average of the held and the new measurement.
+  void add_imu(const ImuSample& imu);
+  /// Makes sure an entry exists at time t (t ≥ oldest; past the newest it extrapolates with the
+  /// held measurement). Returns false when t is older than the history.
+  bool ensure_entry(double t);
+  /// Replaces the entry at t (which must exist, see ensure_entry) and re-propagates later entries.
+  void correct(double t, const NavState& x, const StateCovariance& P);
+
+  StateQuery query(double t) const;
+  /// Entries with t0 ≤ t ≤ t1 (the caller interpolates between them).
+  std::vector<const Entry*> entries_between(double t0, double t1) const;
+
+  const Entry& newest() const { return entries_.back(); }
+  double oldest_time() const { return entries_.front().t; }
+  double last_correction_time() const { return last_correction_t_; }
+  std::size_t size() const { return entries_.size(); }
+
+ private:
+  std::size_t find_at_or_before(double t) const;
+  void trim();
+
+  StateHistoryConfig config_;
+  ImuNoiseConfig noise_;
+  std::deque<Entry> entries_;
+  double last_correction_t_ = -1.0;
+};
+
+/// Interpolates two states on the manifold at fraction a ∈ [0,1] (slerp for rotations).
+NavState interpolate(const NavState& x0, const NavState& x1, double a);
+
+}  // namespace fuse

@@ -1,0 +1,140 @@
+#include "fuse/estimation/state_history.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace fuse {
+
+namespace {
+/// Two times closer than this are the same instant (1 µs: well below any sensor period).
+constexpr double kSameTime = 1e-6;
+}  // namespace
+
+const char* to_string(QueryStatus status) {
+  switch (status) {
+    case QueryStatus::kNotInitialised: return "not_initialised";
+    case QueryStatus::kCorrected: return "corrected";
+    case QueryStatus::kPropagated: return "propagated";
+    case QueryStatus::kTooOld: return "too_old";
+    case QueryStatus::kInFuture: return "in_future";
+  }
+  return "unknown";
+}
+
+void StateHistoryConfig::load(ConfigNode& node) {
+  node.get("length_s", length_s);
+  node.check(std::isfinite(length_s) && length_s >= 0.5 && length_s <= 600.0, "length_s", "must be in [0.5, 600] s");
+  node.finish();
+}
+
+NavState interpolate(const NavState& x0, const NavState& x1, double a) {
+  NavState out = x0;
+  out.p = (1.0 - a) * x0.p + a * x1.p;
+  out.v = (1.0 - a) * x0.v + a * x1.v;
+  out.R = x0.R * so3::Exp(a * so3::Log(x0.R.transpose() * x1.R));
+  out.bg = (1.0 - a) * x0.bg + a * x1.bg;
+  out.ba = (1.0 - a) * x0.ba + a * x1.ba;
+  return out;
+}
+
+void StateHistory::reset(double t, const NavState& x, const StateCovariance& P, const ImuSample& held) {
+  entries_.clear();
+  entries_.push_back({t, x, P, held.gyro, held.accel});
+  last_correction_t_ = t;
+}
+
+void StateHistory::add_imu(const ImuSample& imu) {
+  Entry next = entries_.back();
+  const double dt = imu.t - next.t;
+  if (dt > kSameTime) {
+    propagate(next.x, &next.P, 0.5 * (next.gyro + imu.gyro), 0.5 * (next.accel + imu.accel), dt, noise_);
+    next.t = imu.t;
+    next.gyro = imu.gyro;
+    next.accel = imu.accel;
+    entries_.push_back(next);
+    trim();
+  } else {
+    // Same instant as the newest entry (e.g. a scan end entry): only the held measurement changes.
+    entries_.back().gyro = imu.gyro;
+    entries_.back().accel = imu.accel;
+  }
+}
+
+std::size_t StateHistory::find_at_or_before(double t) const {
+  // Index of the last entry with entry.t <= t + kSameTime (entries_ is sorted by time).
+  auto it = std::upper_bound(entries_.begin(), entries_.end(), t + kSameTime,
+                             [](double value, const Entry& e) { return value < e.t; });
+  return static_cast<std::size_t>(std::distance(entries_.begin(), it)) - 1;
+}
+
+bool StateHistory::ensure_entry(double t) {
+  if (entries_.empty() || t < entries_.front().t - kSameTime) return false;
+  const std::size_t i = find_at_or_before(t);
+  const Entry& base = entries_[i];
+  if (std::abs(base.t - t) <= kSameTime) return true;
+  // Split the step [base.t, next.t] at t: the first part with the held measurement.
+  Entry mid = base;
+  propagate(mid.x, &mid.P, base.gyro, base.accel, t - base.t, noise_);
+  mid.t = t;
+  entries_.insert(entries_.begin() + static_cast<std::ptrdiff_t>(i) + 1, mid);
+  // The step after the split now starts at t with the same held input: re-propagate.
+  correct(t, entries_[i + 1].x, entries_[i + 1].P);
+  return true;
+}
+
+void StateHistory::correct(double t, const NavState& x, const StateCovariance& P) {
+  std::size_t i = find_at_or_before(t);
+  entries_[i].x = x;
+  entries_[i].P = P;
+  for (std::size_t k = i + 1; k < entries_.size(); ++k) {
+    const Entry& prev = entries_[k - 1];
+    Entry& cur = entries_[k];
+    cur.x = prev.x;
+    cur.P = prev.P;
+    propagate(cur.x, &cur.P, 0.5 * (prev.gyro + cur.gyro), 0.5 * (prev.accel + cur.accel), cur.t - prev.t, noise_);
+  }
+  last_correction_t_ = std::max(last_correction_t_, t);
+}
+
+StateQuery StateHistory::query(double t) const {
+  StateQuery q;
+  q.t = t;
+  if (entries_.empty()) return q;
+  if (!std::isfinite(t) || t < entries_.front().t - kSameTime) {
+    q.status = QueryStatus::kTooOld;
+    if (!std::isfinite(t)) q.status = QueryStatus::kInFuture;
+    return q;
+  }
+  if (t > entries_.back().t + kSameTime) {
+    q.status = QueryStatus::kInFuture;
+    return q;
+  }
+  const std::size_t i = find_at_or_before(t);
+  const Entry& e0 = entries_[i];
+  if (i + 1 >= entries_.size() || std::abs(e0.t - t) <= kSameTime) {
+    q.x = e0.x;
+    q.P = e0.P;
+  } else {
+    const Entry& e1 = entries_[i + 1];
+    const double a = (t - e0.t) / (e1.t - e0.t);
+    q.x = interpolate(e0.x, e1.x, a);
+    q.P = (1.0 - a) * e0.P + a * e1.P;
+  }
+  q.status = t <= last_correction_t_ + kSameTime ? QueryStatus::kCorrected : QueryStatus::kPropagated;
+  return q;
+}
+
+std::vector<const StateHistory::Entry*> StateHistory::entries_between(double t0, double t1) const {
+  std::vector<const Entry*> out;
+  for (const Entry& e : entries_) {
+    if (e.t >= t0 - kSameTime && e.t <= t1 + kSameTime) out.push_back(&e);
+  }
+  return out;
+}
+
+void StateHistory::trim() {
+  const double keep_from = entries_.back().t - config_.length_s;
+  while (entries_.size() > 2 && entries_[1].t < keep_from) entries_.pop_front();
+}
+
+}  // namespace fuse
