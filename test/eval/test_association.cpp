@@ -52,6 +52,8 @@ TEST(Association, NoMatchOrBadInputThrows) {
   EXPECT_THROW(associate_by_time(stamps({0.0, 1.0}), stamps({0.5}), 0.01), std::runtime_error);
   EXPECT_THROW(associate_by_time(stamps({}), stamps({0.5}), 0.01), std::runtime_error);
   EXPECT_THROW(associate_by_time(stamps({0.0}), stamps({0.0}), -1.0), std::invalid_argument);
+  EXPECT_THROW(associate_by_time(stamps({0.0, 2.0, 1.0}), stamps({0.0}), 0.01), std::invalid_argument);
+  EXPECT_THROW(associate_by_time(stamps({0.0}), stamps({1.0, 1.0}), 0.01), std::invalid_argument);
 }
 
 TEST(Association, ByIndexNeedsEqualLengths) {

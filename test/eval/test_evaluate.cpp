@@ -78,6 +78,9 @@ TEST(Evaluate, RejectsBadConfigAndTooFewMatches) {
   EvaluationConfig bad_dt;
   bad_dt.max_time_difference = std::nan("");
   EXPECT_THROW(evaluate(gt, gt, bad_dt), std::invalid_argument);
+  Trajectory with_nan = gt;
+  with_nan[4].p.y() = std::nan("");
+  EXPECT_THROW(evaluate(gt, with_nan), std::invalid_argument);
   const Trajectory two(gt.begin(), gt.begin() + 2);
   EXPECT_THROW(evaluate(two, two), std::runtime_error);
   Trajectory collinear = gt;

@@ -24,6 +24,15 @@ std::size_t nearest_index(const Trajectory& sorted, double t) {
                                                            : static_cast<std::size_t>(after - sorted.begin());
 }
 
+/// The nearest-stamp search needs increasing timestamps (the readers guarantee them).
+void require_increasing(const Trajectory& trajectory, const std::string& name) {
+  for (std::size_t i = 1; i < trajectory.size(); ++i) {
+    if (!(trajectory[i].t > trajectory[i - 1].t)) {
+      throw std::invalid_argument(name + " timestamps are not increasing at pose " + std::to_string(i));
+    }
+  }
+}
+
 }  // namespace
 
 AssociatedTrajectories associate_by_time(const Trajectory& reference, const Trajectory& estimate,
@@ -33,6 +42,8 @@ AssociatedTrajectories associate_by_time(const Trajectory& reference, const Traj
                                 std::to_string(max_time_difference));
   }
   if (reference.empty() || estimate.empty()) throw std::runtime_error("cannot associate an empty trajectory");
+  require_increasing(reference, "reference");
+  require_increasing(estimate, "estimate");
 
   // evo iterates over the shorter trajectory and searches the longer one (reference on a tie).
   const bool estimate_longer = estimate.size() > reference.size();

@@ -16,6 +16,16 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr int kOutputPrecision = 6;  // decimals in text and JSON output (µm, µdeg)
 constexpr double kPercent = 100.0;
 
+/// Poses from the API (not only from checked files) must be finite with non-zero quaternions.
+void check_finite(const Trajectory& trajectory, const std::string& name) {
+  for (std::size_t i = 0; i < trajectory.size(); ++i) {
+    const StampedPose& pose = trajectory[i];
+    if (!std::isfinite(pose.t) || !pose.p.allFinite() || !pose.q.coeffs().allFinite() || pose.q.norm() == 0.0) {
+      throw std::invalid_argument(name + " pose " + std::to_string(i) + " has a non-finite value or zero quaternion");
+    }
+  }
+}
+
 AssociatedTrajectories associate(const Trajectory& reference, const Trajectory& estimate,
                                  const EvaluationConfig& config) {
   return config.association == AssociationMode::kIndex
@@ -48,6 +58,8 @@ void EvaluationConfig::validate() const {
 
 EvaluationResult evaluate(const Trajectory& reference, const Trajectory& estimate, const EvaluationConfig& config) {
   config.validate();
+  check_finite(reference, "reference");
+  check_finite(estimate, "estimate");
   const AssociatedTrajectories matched = associate(reference, estimate, config);
   const std::size_t n = matched.reference.size();
   if (n < kMinMatchedPoses) {
@@ -72,7 +84,7 @@ EvaluationResult evaluate(const Trajectory& reference, const Trajectory& estimat
   // RPE: evo_rpe translation part, consecutive pairs every delta metres of reference path, unaligned.
   const IdPairs pairs = pairs_by_path(matched.reference, config.rpe_delta_m);
   if (pairs.empty()) {
-    logger("eval")->warn("RPE: the reference path ({:.3f} m) is too short for delta {} m; no RPE", 
+    logger("eval")->warn("RPE: the reference path ({:.3f} m) is too short for delta {} m; no RPE",
                          path_length(matched.reference), config.rpe_delta_m);
   } else {
     r.rpe = compute_statistics(rpe_translation_errors(matched.reference, matched.estimate, pairs));

@@ -17,7 +17,8 @@ struct AssociatedTrajectories {
 
 /// evo sync.associate_trajectories (offset 0): every pose of the shorter trajectory is matched to
 /// the pose of the longer one nearest in time (the first on a tie), kept when the difference is
-/// at most max_time_difference. Throws std::runtime_error when nothing matches.
+/// at most max_time_difference. Throws std::runtime_error when nothing matches and
+/// std::invalid_argument when timestamps do not increase.
 AssociatedTrajectories associate_by_time(const Trajectory& reference, const Trajectory& estimate,
                                          double max_time_difference = kDefaultMaxTimeDifference);
 

@@ -52,7 +52,7 @@ struct EvaluationResult {
 };
 
 /// Evaluates `estimate` against `reference` (the ground truth). Throws std::invalid_argument on a
-/// bad config and std::runtime_error when the trajectories cannot be evaluated (no matches,
+/// bad config, non-finite poses or (timestamp association) timestamps that do not increase, and std::runtime_error when the trajectories cannot be evaluated (no matches,
 /// fewer than kMinMatchedPoses matches, degenerate alignment).
 EvaluationResult evaluate(const Trajectory& reference, const Trajectory& estimate,
                           const EvaluationConfig& config = {});
