@@ -1,5 +1,7 @@
 #include "fuse/estimation/point_to_plane_model.hpp"
 
+#include <chrono>
+
 namespace fuse {
 
 Eigen::Matrix<double, 1, kObsDim> point_to_plane_jacobian(const NavState& x, const Constraint& c) {
@@ -22,11 +24,13 @@ double point_to_plane_residual(const NavState& x, const Constraint& c) {
 
 bool PointToPlaneModel::linearize(const NavState& x, int iteration, LinearSystem& out) {
   const Eigen::Isometry3d T_WL = x.T_WI() * x.T_IL();
+  const auto t0 = std::chrono::steady_clock::now();
   if (iteration < config_.reassociate_iterations) {
     associator_.associate(points_L_, T_WL, map_, constraints_);
   } else {
     associator_.rescreen(T_WL, constraints_);
   }
+  association_ms_ += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   const double w = 1.0 / (config_.point_sigma * config_.point_sigma);
   // Accumulate only the pose block unless the extrinsic is estimated (6×6 instead of 12×12).
   Eigen::Matrix<double, 6, 6> info6 = Eigen::Matrix<double, 6, 6>::Zero();

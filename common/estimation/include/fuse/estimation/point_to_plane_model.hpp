@@ -29,8 +29,11 @@ class PointToPlaneModel final : public MeasurementModel {
       : config_(config), points_L_(points_L), map_(map), associator_(associator), constraints_(constraints) {}
 
   bool linearize(const NavState& x, int iteration, LinearSystem& out) override;
+  /// Wall time spent in map association (k-nearest search + plane fits), ms.
+  double association_ms() const { return association_ms_; }
 
  private:
+  double association_ms_ = 0.0;
   Config config_;
   const std::vector<Eigen::Vector3f>& points_L_;
   const SpatialIndex& map_;
