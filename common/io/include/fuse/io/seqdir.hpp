@@ -2,7 +2,8 @@
 //   raw/%06d.bin  per point float32 x, y, z, intensity, t_rel, ring (LiDAR frame, not deskewed)
 //   scans.csv     idx,t_start,t_end (absolute seconds)
 //   imu.csv       timestamp,gyro_x,gyro_y,gyro_z,accel_x,accel_y,accel_z
-//                 (timestamp in ns when above 1e10, else seconds; rad/s, m/s^2, IMU frame)
+//                 (timestamp in ns when above 1e10, else seconds; rad/s, m/s^2, IMU frame;
+//                 SeqdirWriter writes integer ns, or seconds for times below 10 s)
 //   calib.yaml    T_imu_lidar: {translation: [x,y,z], rotation_xyzw: [qx,qy,qz,qw]}
 //   gt_tum.txt    true IMU pose at each scan end (TUM), when known
 #pragma once

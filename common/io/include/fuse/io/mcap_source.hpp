@@ -1,0 +1,40 @@
+// SensorSource over an MCAP recording written by RecordingWriter (or any MCAP file with the
+// same channels): `imu` and `lidar/scan` CDR samples in log-time order; other channels ignored.
+#pragma once
+
+#include <deque>
+#include <optional>
+#include <set>
+#include <string>
+
+#include "fuse/io/mcap_reader.hpp"
+#include "fuse/io/source_validator.hpp"
+
+namespace fuse::io {
+
+class McapSource : public SensorSource {
+ public:
+  explicit McapSource(const std::string& path);
+  bool next(SensorEvent& out) override;
+  std::optional<Eigen::Isometry3d> T_imu_lidar() const override { return T_imu_lidar_; }
+  const SourceStats& stats() const override { return validator_.stats(); }
+  std::string describe() const override;
+
+ private:
+  /// Reads every message sharing the next log time, decoded, IMU before scans.
+  bool fill();
+  std::optional<SensorEvent> decode(const McapMessage& m);
+
+  std::string path_;
+  McapReader reader_;
+  SourceValidator validator_;
+  std::optional<Eigen::Isometry3d> T_imu_lidar_;
+  std::optional<McapMessage> lookahead_;
+  std::deque<SensorEvent> ready_;
+  std::set<std::uint16_t> unknown_channels_;
+};
+
+/// Parses the kCalibrationMetadata record (keys tx ty tz qx qy qz qw); bad values -> InputError.
+Eigen::Isometry3d parse_calibration_metadata(const mcap::StringMap& values, const std::string& where);
+
+}  // namespace fuse::io

@@ -1,0 +1,235 @@
+#include "fuse/io/seqdir_source.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+
+#include "fuse/io/time_ns.hpp"
+
+namespace fuse::io {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr const char* kScansHeader = "idx,t_start,t_end";
+constexpr const char* kImuHeader = "timestamp,gyro_x,gyro_y,gyro_z,accel_x,accel_y,accel_z";
+constexpr std::size_t kScanColumns = 3, kImuColumns = 7;
+/// calib.yaml rotation must be a unit quaternion to this tolerance.
+constexpr double kQuaternionNormTolerance = 1e-6;
+/// Largest valid ring index (uint16).
+constexpr float kMaxRing = 65535.f;
+
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string> fields;
+  std::size_t start = 0;
+  for (;;) {
+    const std::size_t comma = line.find(',', start);
+    fields.push_back(line.substr(start, comma - start));
+    if (comma == std::string::npos) return fields;
+    start = comma + 1;
+  }
+}
+
+/// One CSV file read line by line; errors name the file and the line.
+class CsvFile {
+ public:
+  CsvFile(const std::string& path, const char* header, std::size_t columns) : path_(path), in_(path), columns_(columns) {
+    if (!in_) throw InputError(path + ": cannot open");
+    std::string first;
+    if (!read_line(first)) fail("empty file, expected the header '" + std::string(header) + "'");
+    if (first != header) fail("header '" + first + "', expected '" + header + "'");
+  }
+  /// Next data row split into fields; false at the end. Blank lines are refused.
+  bool next(std::vector<std::string>& fields) {
+    std::string line;
+    if (!read_line(line)) return false;
+    fields = split(line);
+    if (fields.size() != columns_) {
+      fail(std::to_string(fields.size()) + " columns, expected " + std::to_string(columns_));
+    }
+    return true;
+  }
+  double number(const std::string& field, const char* column) const {
+    const char* text = field.c_str();
+    char* end = nullptr;
+    const double v = std::strtod(text, &end);
+    if (field.empty() || end != text + field.size()) fail(std::string(column) + " '" + field + "' is not a number");
+    return v;  // NaN/inf are parsed here and refused by the validator (counted)
+  }
+  std::uint64_t integer(const std::string& field, const char* column) const {
+    if (field.empty() || field.find_first_not_of("0123456789") != std::string::npos || field.size() > 19) {
+      fail(std::string(column) + " '" + field + "' is not a non-negative integer");
+    }
+    return std::stoull(field);
+  }
+  std::size_t line() const { return line_; }
+  [[noreturn]] void fail(const std::string& what) const {
+    throw InputError(path_ + " line " + std::to_string(line_) + ": " + what);
+  }
+
+ private:
+  bool read_line(std::string& line) {
+    if (!std::getline(in_, line)) return false;
+    ++line_;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    return true;
+  }
+  std::string path_;
+  std::ifstream in_;
+  std::size_t columns_;
+  std::size_t line_ = 0;
+};
+
+/// imu.csv timestamp: integer nanoseconds (exact), or a number in seconds or nanoseconds.
+double parse_timestamp(const CsvFile& csv, const std::string& field) {
+  if (!field.empty() && field.find_first_not_of("0123456789") == std::string::npos && field.size() <= 19) {
+    const std::uint64_t v = csv.integer(field, "timestamp");
+    return static_cast<double>(v) > kNanosecondThreshold ? ns_to_seconds(v) : static_cast<double>(v);
+  }
+  const double v = csv.number(field, "timestamp");
+  return v > kNanosecondThreshold ? v / kNsPerSecond : v;
+}
+
+std::vector<double> yaml_numbers(const YAML::Node& node, std::size_t n, const std::string& where) {
+  if (!node || !node.IsSequence() || node.size() != n) {
+    throw InputError(where + ": expected a list of " + std::to_string(n) + " numbers");
+  }
+  std::vector<double> out;
+  for (const auto& v : node) {
+    try {
+      out.push_back(v.as<double>());
+    } catch (const YAML::Exception&) {
+      throw InputError(where + ": '" + YAML::Dump(v) + "' is not a number");
+    }
+    if (!std::isfinite(out.back())) throw InputError(where + ": non-finite value");
+  }
+  return out;
+}
+
+}  // namespace
+
+Eigen::Isometry3d read_calib_yaml(const std::string& file) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(file);
+  } catch (const YAML::Exception& e) {
+    throw InputError(file + ": " + e.what());
+  }
+  const YAML::Node T = root["T_imu_lidar"];
+  if (!T || !T.IsMap()) throw InputError(file + ": missing map 'T_imu_lidar'");
+  const auto t = yaml_numbers(T["translation"], 3, file + ": T_imu_lidar.translation");
+  const auto q = yaml_numbers(T["rotation_xyzw"], 4, file + ": T_imu_lidar.rotation_xyzw");
+  Eigen::Quaterniond rotation(q[3], q[0], q[1], q[2]);
+  if (std::abs(rotation.norm() - 1.0) > kQuaternionNormTolerance) {
+    throw InputError(file + ": T_imu_lidar.rotation_xyzw has norm " + std::to_string(rotation.norm()) + ", expected 1");
+  }
+  Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
+  out.linear() = rotation.normalized().toRotationMatrix();
+  out.translation() = Eigen::Vector3d(t[0], t[1], t[2]);
+  return out;
+}
+
+SeqdirSource::SeqdirSource(const std::string& dir) : dir_(dir), validator_("sequence directory '" + dir + "'") {
+  if (!fs::is_directory(dir)) throw InputError(dir + ": not a directory");
+  read_scans_csv();
+  read_imu_csv();
+  read_calib();
+}
+
+void SeqdirSource::read_scans_csv() {
+  CsvFile csv(dir_ + "/scans.csv", kScansHeader, kScanColumns);
+  std::vector<std::string> f;
+  while (csv.next(f)) {
+    ScanEntry e;
+    e.index = csv.integer(f[0], "idx");
+    e.t_start = csv.number(f[1], "t_start");
+    e.t_end = csv.number(f[2], "t_end");
+    e.line = csv.line();
+    char name[32];
+    std::snprintf(name, sizeof name, "raw/%06llu.bin", static_cast<unsigned long long>(e.index));
+    e.raw_path = dir_ + "/" + name;
+    std::error_code ec;
+    const auto size = fs::file_size(e.raw_path, ec);
+    if (ec) csv.fail("scan " + std::to_string(e.index) + ": cannot read " + e.raw_path + " (" + ec.message() + ")");
+    if (size % kRawPointBytes != 0) {
+      csv.fail(e.raw_path + " has " + std::to_string(size) + " bytes, not a multiple of " + std::to_string(kRawPointBytes));
+    }
+    scans_.push_back(std::move(e));
+  }
+}
+
+void SeqdirSource::read_imu_csv() {
+  CsvFile csv(dir_ + "/imu.csv", kImuHeader, kImuColumns);
+  std::vector<std::string> f;
+  static const char* const kColumns[] = {"timestamp", "gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"};
+  while (csv.next(f)) {
+    ImuSample s;
+    s.t = parse_timestamp(csv, f[0]);
+    for (int i = 0; i < 3; ++i) {
+      s.gyro[i] = csv.number(f[1 + i], kColumns[1 + i]);
+      s.accel[i] = csv.number(f[4 + i], kColumns[4 + i]);
+    }
+    s.sequence = imu_.size();
+    imu_.push_back(s);
+  }
+}
+
+void SeqdirSource::read_calib() {
+  const std::string file = dir_ + "/calib.yaml";
+  if (fs::exists(file)) T_imu_lidar_ = read_calib_yaml(file);
+}
+
+LidarScan SeqdirSource::load_scan(const ScanEntry& e) const {
+  std::ifstream in(e.raw_path, std::ios::binary);
+  if (!in) throw InputError(e.raw_path + ": cannot open (scans.csv line " + std::to_string(e.line) + ")");
+  std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (bytes.size() % kRawPointBytes != 0) {
+    throw InputError(e.raw_path + ": " + std::to_string(bytes.size()) + " bytes, not a multiple of " +
+                     std::to_string(kRawPointBytes));
+  }
+  LidarScan scan;
+  scan.t_start = e.t_start;
+  scan.t_end = e.t_end;
+  scan.sequence = e.index;
+  scan.points.resize(bytes.size() / kRawPointBytes);
+  for (std::size_t i = 0; i < scan.points.size(); ++i) {
+    float v[6];
+    std::memcpy(v, bytes.data() + i * kRawPointBytes, kRawPointBytes);
+    if (!(v[5] >= 0.f && v[5] <= kMaxRing && v[5] == std::floor(v[5]))) {
+      throw InputError(e.raw_path + ": point " + std::to_string(i) + " has ring " + std::to_string(v[5]) +
+                       ", expected an integer in 0..65535");
+    }
+    scan.points[i] = LidarPoint{v[0], v[1], v[2], v[3], v[4], static_cast<std::uint16_t>(v[5])};
+  }
+  return scan;
+}
+
+std::string SeqdirSource::describe() const {
+  return "sequence directory '" + dir_ + "' (" + std::to_string(scans_.size()) + " scans, " +
+         std::to_string(imu_.size()) + " IMU samples)";
+}
+
+bool SeqdirSource::next(SensorEvent& out) {
+  for (;;) {
+    const bool have_imu = next_imu_ < imu_.size(), have_scan = next_scan_ < scans_.size();
+    if (!have_imu && !have_scan) return false;
+    // Arrival order: IMU at t, scan at t_end; on a tie the IMU sample comes first.
+    const bool take_imu = have_imu && (!have_scan || !(imu_[next_imu_].t > scans_[next_scan_].t_end));
+    if (take_imu) {
+      out.kind = SensorEvent::Kind::kImu;
+      out.imu = imu_[next_imu_++];
+      if (validator_.accept(out.imu)) return true;
+    } else {
+      out.kind = SensorEvent::Kind::kLidar;
+      out.scan = load_scan(scans_[next_scan_++]);
+      if (validator_.accept(out.scan)) return true;
+    }
+  }
+}
+
+}  // namespace fuse::io
