@@ -1,0 +1,43 @@
+// Scenarios (spec "Scenarios"): a world seeded by --world-seed and a trajectory whose motion
+// variations are seeded by --seed. The LiDAR-IMU extrinsic is the same for every scenario.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "fuse/sim/trajectory.hpp"
+#include "fuse/sim/world.hpp"
+
+namespace fuse::sim {
+
+/// The Livox Mid-360's IMU offset: LiDAR origin in the IMU frame (metres).
+inline const Eigen::Vector3d kLidarInImuTranslation(-0.011, -0.02329, 0.04412);
+/// A small LiDAR-IMU misalignment (roll, pitch, yaw in degrees; about 2 deg in total), so that
+/// estimators cannot get away with assuming an identity rotation.
+inline const Eigen::Vector3d kLidarInImuRpyDeg(0.8, -1.5, 1.0);
+/// Scans and IMU samples start here (seconds), like the shared sample sequence.
+constexpr double kStartTime = 1000.0;
+
+/// T_imu_lidar: p_imu = R p_lidar + t.
+Eigen::Isometry3d default_T_imu_lidar();
+
+struct Scenario {
+  std::string name;
+  World world;
+  std::optional<Trajectory> trajectory;
+  /// Scenario-specific parameters for scenario.yaml (world dimensions, counts, speeds).
+  std::vector<std::pair<std::string, double>> parameters;
+};
+
+/// The accepted names: corridor, stairs, room, campus.
+const std::vector<std::string>& scenario_names();
+
+/// Builds a scenario (world built, ready to cast). Throws std::invalid_argument on an unknown name.
+Scenario make_scenario(const std::string& name, std::uint64_t world_seed, std::uint64_t seed,
+                       double t0 = kStartTime);
+
+}  // namespace fuse::sim

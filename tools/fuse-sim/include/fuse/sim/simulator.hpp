@@ -1,0 +1,34 @@
+// The whole simulation: scenario -> IMU samples and LiDAR scans written incrementally (MCAP
+// recording or sequence directory), the true IMU pose at the IMU rate (groundtruth.tum) and every
+// parameter used (scenario.yaml). Same options -> byte-identical files.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+namespace fuse::sim {
+
+enum class OutputFormat { kMcap, kSeqdir };
+
+struct SimOptions {
+  std::string scenario;
+  std::uint64_t seed = 0;
+  std::uint64_t world_seed = 0;
+  std::optional<double> duration_s;  ///< cut the scenario short (never lengthens it)
+  std::string lidar = "mid360";
+  OutputFormat format = OutputFormat::kMcap;
+  std::string out_dir;
+};
+
+struct SimSummary {
+  std::size_t scans = 0, imu_samples = 0, points = 0;
+  double duration_s = 0.0;
+  double path_length_m = 0.0;
+  double wall_time_s = 0.0;
+};
+
+/// Runs the simulation; throws std::invalid_argument / std::runtime_error with a clear message.
+SimSummary run_simulation(const SimOptions& options);
+
+}  // namespace fuse::sim

@@ -1,0 +1,60 @@
+#include "fuse/sim/lidar_model.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace fuse::sim {
+
+namespace {
+constexpr double kIntensityFloor = 0.25;   // share of the intensity independent of incidence
+constexpr double kIntensityScale = 255.0;  // 8-bit intensity scale
+}  // namespace
+
+LidarSimulator::LidarSimulator(const LidarConfig& config, const World& world, const Trajectory& trajectory,
+                               const Eigen::Isometry3d& T_imu_lidar, std::uint64_t seed)
+    : config_(config), world_(world), trajectory_(trajectory), T_imu_lidar_(T_imu_lidar), rng_(seed, Stream::kLidar) {}
+
+fuse::LidarScan LidarSimulator::scan(std::uint64_t frame_index, double t0) {
+  fuse::LidarScan out;
+  const double t_start = t0 + static_cast<double>(frame_index) * config_.frame_period_s;
+  out.t_start = t_start;
+  out.t_end = t0 + static_cast<double>(frame_index + 1) * config_.frame_period_s;
+  out.sequence = frame_index;
+  generate_shots(config_, frame_index, shots_);
+  out.points.reserve(shots_.size());
+  const Eigen::Matrix3d R_il = T_imu_lidar_.linear();
+  const Eigen::Vector3d t_il = T_imu_lidar_.translation();
+  for (const Shot& shot : shots_) {
+    // The ray is cast at exactly the recorded time t_start + t_rel (t_rel as stored, float).
+    const TrajectoryState s = trajectory_.state(t_start + static_cast<double>(shot.t_rel));
+    const Eigen::Vector3d origin = s.p + s.R * t_il;
+    Eigen::Vector3d dir_l = shot.dir;
+    if (config_.angular_noise_sigma_rad > 0.0) {
+      const double d_az = rng_.normal(config_.angular_noise_sigma_rad);
+      const double d_el = rng_.normal(config_.angular_noise_sigma_rad);
+      const double el = std::asin(std::clamp(shot.dir.z(), -1.0, 1.0));
+      const double az = std::atan2(shot.dir.y(), shot.dir.x());
+      dir_l = direction(az + d_az, el + d_el);
+    }
+    const double range_noise = rng_.normal(config_.range_noise_sigma_m);  // drawn for every shot
+    const Eigen::Vector3d dir_w = s.R * (R_il * dir_l);
+    const Hit hit = world_.cast(origin, dir_w, config_.max_range_m);
+    if (!hit.valid() || hit.range < config_.blind_range_m) continue;
+    const double measured = hit.range + range_noise;
+    if (measured < config_.blind_range_m || measured > config_.max_range_m) continue;
+    const Eigen::Vector3d p = measured * shot.dir;
+    const double cos_inc = std::abs(hit.normal.dot(dir_w));
+    fuse::LidarPoint pt;
+    pt.x = static_cast<float>(p.x());
+    pt.y = static_cast<float>(p.y());
+    pt.z = static_cast<float>(p.z());
+    pt.intensity = static_cast<float>(std::round(
+        kIntensityScale * hit.material.reflectivity * (kIntensityFloor + (1.0 - kIntensityFloor) * cos_inc)));
+    pt.t_rel = shot.t_rel;
+    pt.ring = shot.ring;
+    out.points.push_back(pt);
+  }
+  return out;
+}
+
+}  // namespace fuse::sim

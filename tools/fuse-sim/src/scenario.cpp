@@ -1,0 +1,62 @@
+#include "fuse/sim/scenario.hpp"
+
+#include <stdexcept>
+
+#include "fuse/sim/imu_model.hpp"  // kDegToRad
+#include "scenario_builders.hpp"
+
+namespace fuse::sim {
+
+Eigen::Isometry3d default_T_imu_lidar() {
+  const Eigen::Vector3d rpy = kLidarInImuRpyDeg * kDegToRad;
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = (Eigen::AngleAxisd(rpy.z(), Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(rpy.y(), Eigen::Vector3d::UnitY()) *
+                Eigen::AngleAxisd(rpy.x(), Eigen::Vector3d::UnitX()))
+                   .toRotationMatrix();
+  T.translation() = kLidarInImuTranslation;
+  return T;
+}
+
+const std::vector<std::string>& scenario_names() {
+  static const std::vector<std::string> names = {"corridor", "stairs", "room", "campus"};
+  return names;
+}
+
+Scenario make_scenario(const std::string& name, std::uint64_t world_seed, std::uint64_t seed, double t0) {
+  Scenario s;
+  s.name = name;
+  Rng world_rng(world_seed, Stream::kWorld);
+  Rng motion_rng(seed, Stream::kMotion);
+  if (name == "corridor")
+    detail::build_corridor(s, world_rng, motion_rng, t0);
+  else if (name == "stairs")
+    detail::build_stairs(s, world_rng, motion_rng, t0);
+  else if (name == "room")
+    detail::build_room(s, world_rng, motion_rng, t0);
+  else if (name == "campus")
+    detail::build_campus(s, world_rng, motion_rng, t0);
+  else
+    throw std::invalid_argument("unknown scenario '" + name + "' (expected corridor, stairs, room or campus)");
+  s.world.build();
+  return s;
+}
+
+namespace detail {
+
+Material material(Rng& rng, SurfaceId id, double base, double jitter) {
+  Material m;
+  m.surface_id = id;
+  m.reflectivity = base + rng.uniform(-jitter, jitter);
+  return m;
+}
+
+void add_box(World& world, const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Material& m) {
+  Box box;
+  box.min = a.cwiseMin(b);
+  box.max = a.cwiseMax(b);
+  box.material = m;
+  world.add(box);
+}
+
+}  // namespace detail
+}  // namespace fuse::sim

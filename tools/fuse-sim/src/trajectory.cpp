@@ -1,0 +1,80 @@
+#include "fuse/sim/trajectory.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+namespace fuse::sim {
+
+namespace {
+
+constexpr double kTwoPi = 6.283185307179586476925286766559;
+
+// sum_i a_i sin(2 pi f_i tau + phi_i) as a Jet of tau.
+Jet oscillation_sum(const std::vector<Oscillation>& terms, double tau) {
+  Jet sum;
+  for (const Oscillation& o : terms) {
+    const double w = kTwoPi * o.frequency_hz;
+    sum = sum + o.amplitude * sin(Jet{w * tau + o.phase, w, 0.0});
+  }
+  return sum;
+}
+
+// Rz(yaw) Ry(pitch) Rx(roll).
+Eigen::Matrix3d rotation_zyx(double yaw, double pitch, double roll) {
+  return (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+      .toRotationMatrix();
+}
+
+// Body angular velocity of R = Rz(psi) Ry(theta) Rx(phi) from the Euler rates:
+// w = [phi' - psi' sin(theta), theta' cos(phi) + psi' sin(phi) cos(theta),
+//      -theta' sin(phi) + psi' cos(phi) cos(theta)].
+Eigen::Vector3d body_rate_zyx(const Jet& yaw, const Jet& pitch, const Jet& roll) {
+  const double sp = std::sin(pitch.v), cp = std::cos(pitch.v);
+  const double sr = std::sin(roll.v), cr = std::cos(roll.v);
+  return {roll.d - yaw.d * sp, pitch.d * cr + yaw.d * sr * cp, -pitch.d * sr + yaw.d * cr * cp};
+}
+
+}  // namespace
+
+Trajectory::Trajectory(Path path, const TimeLawConfig& time_law, const MotionConfig& motion, double t0)
+    : path_(std::move(path)), time_law_(time_law, path_.u_end()), motion_(motion), t0_(t0) {}
+
+TrajectoryState Trajectory::state(double t) const {
+  const double tau = std::clamp(t - t0_, 0.0, time_law_.duration());
+  const TimeLawSample s = time_law_.at(tau);
+  const Jet u{s.u, s.u1, s.u2};
+  const PathPoint c = path_.at(s.u);
+  const Heading h = Path::heading(c);
+
+  // Speed envelope e = u' / rate: 0 at rest, 1 when cruising (with its own derivatives).
+  const double rate = time_law_.config().rate;
+  const Jet envelope{s.u1 / rate, s.u2 / rate, s.u3 / rate};
+  const Jet heading = compose(h.theta, h.theta_u, h.theta_uu, u);
+  const Jet lateral = envelope * oscillation_sum(motion_.lateral, tau);
+  const Jet vertical = envelope * oscillation_sum(motion_.vertical, tau);
+
+  // p = c(u) + lateral * n(heading) + vertical * z, with the left normal n = (-sin, cos, 0).
+  const Jet nx = -1.0 * sin(heading), ny = cos(heading);
+  Jet p[3];
+  for (int i = 0; i < 3; ++i) p[i] = compose(c.c[i], c.c1[i], c.c2[i], u);
+  p[0] = p[0] + lateral * nx;
+  p[1] = p[1] + lateral * ny;
+  p[2] = p[2] + vertical;
+
+  const Jet yaw = heading + envelope * oscillation_sum(motion_.yaw, tau);
+  const Jet pitch = Jet::constant(motion_.pitch_offset) + envelope * oscillation_sum(motion_.pitch, tau);
+  const Jet roll = Jet::constant(motion_.roll_offset) + envelope * oscillation_sum(motion_.roll, tau);
+
+  TrajectoryState out;
+  out.t = t0_ + tau;
+  out.p = {p[0].v, p[1].v, p[2].v};
+  out.v = {p[0].d, p[1].d, p[2].d};
+  out.a = {p[0].dd, p[1].dd, p[2].dd};
+  out.R = rotation_zyx(yaw.v, pitch.v, roll.v);
+  out.omega_body = body_rate_zyx(yaw, pitch, roll);
+  return out;
+}
+
+}  // namespace fuse::sim
