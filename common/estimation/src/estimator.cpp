@@ -72,8 +72,12 @@ void EstimatorConfig::load(ConfigNode& node) {
   {
     auto m = node.child("measurement");
     m.get("point_sigma", measurement.point_sigma).get("reassociate_iterations", measurement.reassociate_iterations);
+    m.get("reassociate_translation", measurement.reassociate_translation);
+    m.get("reassociate_rotation", measurement.reassociate_rotation);
     m.check(measurement.point_sigma > 0.0, "point_sigma", "must be positive");
     m.check(measurement.reassociate_iterations >= 1, "reassociate_iterations", "must be >= 1");
+    m.check(measurement.reassociate_translation >= 0.0, "reassociate_translation", "must be >= 0");
+    m.check(measurement.reassociate_rotation >= 0.0, "reassociate_rotation", "must be >= 0");
     m.finish();
   }
   auto c_update = node.child("update");

@@ -25,8 +25,16 @@ double point_to_plane_residual(const NavState& x, const Constraint& c) {
 bool PointToPlaneModel::linearize(const NavState& x, int iteration, LinearSystem& out) {
   const Eigen::Isometry3d T_WL = x.T_WI() * x.T_IL();
   const auto t0 = std::chrono::steady_clock::now();
-  if (iteration < config_.reassociate_iterations) {
+  bool search = !associated_;
+  if (associated_ && iteration < config_.reassociate_iterations) {
+    const Eigen::Isometry3d delta = T_WL_associated_.inverse() * T_WL;
+    search = delta.translation().norm() > config_.reassociate_translation ||
+             Eigen::AngleAxisd(delta.linear()).angle() > config_.reassociate_rotation;
+  }
+  if (search) {
     associator_.associate(points_L_, T_WL, map_, constraints_);
+    associated_ = true;
+    T_WL_associated_ = T_WL;
   } else {
     associator_.rescreen(T_WL, constraints_);
   }

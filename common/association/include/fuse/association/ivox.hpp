@@ -1,11 +1,15 @@
 // Hash-voxel index in the style of iVox (Bai et al., Faster-LIO, 2022): points bucketed in cubic
-// voxels keyed by integer coordinates in a hash map; k-nearest search scans the query's voxel and a
-// fixed neighbourhood of voxels; voxels are kept in least-recently-used order and the oldest are
-// evicted beyond a capacity, which bounds memory over long runs.
+// voxels keyed by integer coordinates; k-nearest search scans the query's voxel and a fixed
+// neighbourhood of voxels (nearest first, skipping voxels farther than the current k-th
+// neighbour). Voxels remember when they were last touched by an insert; beyond `max_voxels` the
+// least recently touched are evicted, which bounds memory over long runs (LRU).
+//
+// The hash table is open-addressing with linear probing over a power-of-two array of slots that
+// hold the key and the voxel's index: a lookup is one mixed hash, no division, no pointer chase.
 #pragma once
 
-#include <list>
-#include <unordered_map>
+#include <cstdint>
+#include <vector>
 
 #include "fuse/association/spatial_index.hpp"
 
@@ -21,33 +25,34 @@ class IVox final : public SpatialIndex {
   std::size_t size() const override { return num_points_; }
   void for_each_point(const std::function<void(const Eigen::Vector3f&)>& fn) const override;
   std::string name() const override { return "ivox"; }
-  std::size_t num_voxels() const { return voxels_.size(); }
+  std::size_t num_voxels() const { return num_voxels_; }
 
  private:
   using Key = Eigen::Vector3i;
-  struct KeyHash {
-    std::size_t operator()(const Key& k) const {
-      // Spatial hash of Teschner et al. (2003): XOR of coordinates times large primes.
-      return static_cast<std::size_t>((k.x() * 73856093) ^ (k.y() * 19349663) ^ (k.z() * 83492791));
-    }
-  };
-  struct KeyEq {
-    bool operator()(const Key& a, const Key& b) const { return a == b; }
+  struct Slot {
+    Key key;
+    std::int32_t voxel = -1;  ///< index into voxels_, -1 = empty
   };
   struct Voxel {
     Key key;
-    std::vector<Eigen::Vector3f> points;
+    std::uint64_t last_touch = 0;
+    std::vector<Eigen::Vector3f> points;  ///< empty = free voxel record
   };
-  using LruList = std::list<Voxel>;
 
   Key key_of(const Eigen::Vector3f& p) const;
+  std::size_t slot_of(const Key& key) const;  ///< the slot holding key, or the empty slot where it goes
+  std::int32_t find(const Key& key) const;
+  void rebuild_table(std::size_t capacity);
+  void evict_least_recent();
 
   SpatialIndexConfig config_;
-  float inv_voxel_size_;
+  float voxel_size_, inv_voxel_size_;
   std::vector<Key> offsets_;
-  LruList voxels_;  ///< front = most recently inserted into
-  std::unordered_map<Key, LruList::iterator, KeyHash, KeyEq> table_;
-  std::size_t num_points_ = 0;
+  std::vector<Slot> slots_;
+  std::vector<Voxel> voxels_;
+  std::vector<std::int32_t> free_voxels_;
+  std::size_t num_voxels_ = 0, num_points_ = 0;
+  std::uint64_t clock_ = 0;
 };
 
 }  // namespace fuse

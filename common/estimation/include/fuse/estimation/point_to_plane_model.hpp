@@ -2,7 +2,8 @@
 //   r_j = nᵀ(R_WI (R_IL p_L + p_IL) + p_WI) + d
 // with Jacobians over [δp, δθ, δθ_IL, δp_IL] (right perturbations; q = R_IL p_L + p_IL):
 //   ∂r/∂δp = nᵀ,  ∂r/∂δθ = (q × R_WIᵀn)ᵀ,  ∂r/∂δθ_IL = (p_L × R_ILᵀR_WIᵀn)ᵀ,  ∂r/∂δp_IL = nᵀR_WI.
-// Associates against the map on the first iterations and re-screens the kept planes afterwards.
+// Associates against the map at the prior and again on later iterations while the pose still moves
+// noticeably; otherwise it keeps the planes and only re-screens their residuals.
 #pragma once
 
 #include <vector>
@@ -21,7 +22,9 @@ class PointToPlaneModel final : public MeasurementModel {
  public:
   struct Config {
     double point_sigma = 0.05;        ///< m, standard deviation of a point-to-plane residual
-    int reassociate_iterations = 2;   ///< iterations that search the map again (then only re-screen)
+    int reassociate_iterations = 3;   ///< iterations that may search the map again (then only re-screen)
+    double reassociate_translation = 0.05;  ///< m: search again only if the pose moved more than this ...
+    double reassociate_rotation = 0.005;    ///< rad: ... or turned more than this since the last search
     bool extrinsic_jacobian = false;  ///< fill the extrinsic columns (when the extrinsic is estimated)
   };
   PointToPlaneModel(const Config& config, const std::vector<Eigen::Vector3f>& points_L, const SpatialIndex& map,
@@ -34,6 +37,8 @@ class PointToPlaneModel final : public MeasurementModel {
 
  private:
   double association_ms_ = 0.0;
+  bool associated_ = false;
+  Eigen::Isometry3d T_WL_associated_ = Eigen::Isometry3d::Identity();
   Config config_;
   const std::vector<Eigen::Vector3f>& points_L_;
   const SpatialIndex& map_;
