@@ -1,30 +1,12 @@
 #include "fuse/sim/bvh.hpp"
 
 #include <algorithm>
-#include <cmath>
 #include <limits>
 
 namespace fuse::sim {
 
 namespace {
 constexpr std::uint32_t kLeafSize = 4;  // primitives per leaf
-constexpr int kMaxDepth = 64;           // traversal stack size (the median split keeps depth ~log2 n)
-
-// Slab test against [lo, hi]; returns the entry distance or +inf when missed (or beyond t_max).
-double slab_entry(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, const Eigen::Vector3d& o,
-                  const Eigen::Vector3d& inv, double t_max) {
-  double t0 = 0.0, t1 = t_max;
-  for (int a = 0; a < 3; ++a) {
-    double near = (lo[a] - o[a]) * inv[a], far = (hi[a] - o[a]) * inv[a];
-    if (near > far) std::swap(near, far);
-    if (std::isnan(near)) near = -std::numeric_limits<double>::infinity();  // o on a slab, dir parallel
-    if (std::isnan(far)) far = std::numeric_limits<double>::infinity();
-    t0 = std::max(t0, near);
-    t1 = std::min(t1, far);
-    if (t0 > t1) return std::numeric_limits<double>::infinity();
-  }
-  return t0;
-}
 }  // namespace
 
 void Bvh::build(const std::vector<Eigen::Vector3d>& mins, const std::vector<Eigen::Vector3d>& maxs) {
@@ -68,35 +50,6 @@ std::uint32_t Bvh::build_node(std::uint32_t begin, std::uint32_t end) {
   nodes_[index].first = right;
   nodes_[index].count = 0;
   return index;
-}
-
-void Bvh::traverse(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double max_range,
-                   const std::function<double(std::uint32_t, double)>& visit) const {
-  if (nodes_.empty()) return;
-  const Eigen::Vector3d inv = dir.cwiseInverse();
-  double best = max_range;
-  std::uint32_t stack[kMaxDepth];
-  int top = 0;
-  stack[top++] = 0;
-  while (top > 0) {
-    const Node& node = nodes_[stack[--top]];
-    if (slab_entry(node.min, node.max, origin, inv, best) > best) continue;
-    if (node.count > 0) {
-      for (std::uint32_t i = node.first; i < node.first + node.count; ++i) best = visit(order_[i], best);
-      continue;
-    }
-    const std::uint32_t left = static_cast<std::uint32_t>(&node - nodes_.data()) + 1, right = node.first;
-    const double tl = slab_entry(nodes_[left].min, nodes_[left].max, origin, inv, best);
-    const double tr = slab_entry(nodes_[right].min, nodes_[right].max, origin, inv, best);
-    // Push the farther child first so the nearer one is visited first.
-    if (tl <= tr) {
-      if (tr <= best) stack[top++] = right;
-      if (tl <= best) stack[top++] = left;
-    } else {
-      if (tl <= best) stack[top++] = left;
-      if (tr <= best) stack[top++] = right;
-    }
-  }
 }
 
 }  // namespace fuse::sim
