@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <filesystem>
 
 #include "fuse/io/compression.hpp"
 #include "fuse/io/crc32.hpp"
@@ -27,7 +28,10 @@ std::uint64_t content_length(const std::vector<std::uint8_t>& prefix) {
 
 }  // namespace
 
-McapReader::McapReader(const std::string& path) : path_(path), in_(path, std::ios::binary) {
+McapReader::McapReader(const std::string& path) : path_(path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) throw InputError("'" + path + "' is not a readable MCAP file");
+  in_.open(path, std::ios::binary);
   if (!in_) throw InputError("cannot open MCAP file '" + path + "'");
   in_.seekg(0, std::ios::end);
   size_ = static_cast<std::uint64_t>(in_.tellg());

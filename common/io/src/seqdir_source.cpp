@@ -185,9 +185,11 @@ void SeqdirSource::read_calib() {
 }
 
 LidarScan SeqdirSource::load_scan(const ScanEntry& e) const {
-  std::ifstream in(e.raw_path, std::ios::binary);
+  std::ifstream in(e.raw_path, std::ios::binary | std::ios::ate);
   if (!in) throw InputError(e.raw_path + ": cannot open (scans.csv line " + std::to_string(e.line) + ")");
-  std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::vector<char> bytes(static_cast<std::size_t>(in.tellg()));
+  in.seekg(0);
+  if (!in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()))) throw InputError(e.raw_path + ": read error");
   if (bytes.size() % kRawPointBytes != 0) {
     throw InputError(e.raw_path + ": " + std::to_string(bytes.size()) + " bytes, not a multiple of " +
                      std::to_string(kRawPointBytes));
