@@ -1,0 +1,129 @@
+// Plane fitting and point-to-plane association (associator.hpp) against a known plane map.
+#include "fuse/association/associator.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "fuse/association/spatial_index.hpp"
+#include "oracle.hpp"
+
+namespace fuse {
+namespace {
+
+
+Eigen::Vector3f plane_point(const Eigen::Vector3f& n, float d, float u, float v) {
+  // Two directions spanning the plane nᵀx + d = 0, and its point closest to the origin.
+  const Eigen::Vector3f a = n.unitOrthogonal(), b = n.cross(a);
+  return -d * n + u * a + v * b;
+}
+
+TEST(FitPlane, RecoversNormalAndOffsetFromNoisyPoints) {
+  std::mt19937 rng(100);
+  std::normal_distribution<float> noise(0.0f, 0.005f);
+  std::uniform_real_distribution<float> u(-0.5f, 0.5f);
+  const Eigen::Vector3f n = Eigen::Vector3f(0.3f, -0.5f, 0.8f).normalized();
+  constexpr float kD = -2.0f;
+  std::vector<Eigen::Vector3f> pts;
+  for (int i = 0; i < 10; ++i) pts.push_back(plane_point(n, kD, u(rng), u(rng)) + noise(rng) * n);
+  Eigen::Vector3f normal;
+  float d = 0.f;
+  ASSERT_TRUE(fit_plane(pts.data(), static_cast<int>(pts.size()), 0.05f, normal, d));
+  EXPECT_NEAR(normal.norm(), 1.0f, 1e-5f);
+  const float sign = normal.dot(n) > 0 ? 1.0f : -1.0f;  // the sign of a plane normal is arbitrary
+  EXPECT_LT(std::acos(std::min(1.0f, sign * normal.dot(n))), 0.05f);  // ~σ/extent
+  EXPECT_NEAR(sign * d, kD, 0.01f);
+}
+
+TEST(FitPlane, RefusesNonPlanarAndTooFewPoints) {
+  std::mt19937 rng(101);
+  const auto blob = test::random_cloud(rng, 10, 0.5f);
+  Eigen::Vector3f normal;
+  float d = 0.f;
+  EXPECT_FALSE(fit_plane(blob.data(), static_cast<int>(blob.size()), 0.05f, normal, d));
+  EXPECT_FALSE(fit_plane(blob.data(), 2, 0.05f, normal, d));
+}
+
+struct PlaneMapFixture {
+  /// Map: the floor z = 0 on a 0.1 m grid over [0, 10]², in an iVox index.
+  std::unique_ptr<SpatialIndex> map;
+  Eigen::Isometry3d T_WL = Eigen::Isometry3d::Identity();
+  PlaneMapFixture() {
+    map = make_spatial_index(SpatialIndexConfig{});
+    std::vector<Eigen::Vector3f> pts;
+    for (int i = 0; i <= 100; ++i) {
+      for (int j = 0; j <= 100; ++j) pts.emplace_back(0.1f * i, 0.1f * j, 0.0f);
+    }
+    map->insert(pts);
+    T_WL.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.2, 0.1, 1).normalized()).toRotationMatrix();
+    T_WL.translation() = Eigen::Vector3d(5, 5, 1.5);
+  }
+  /// Scan points (LiDAR frame) whose world position is at height `offset` above the floor.
+  std::vector<Eigen::Vector3f> points_at(float offset, int n, std::mt19937& rng) const {
+    std::uniform_real_distribution<float> u(2.0f, 8.0f);
+    std::vector<Eigen::Vector3f> out;
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Vector3d p_W(u(rng), u(rng), offset);
+      out.push_back((T_WL.inverse() * p_W).cast<float>());
+    }
+    return out;
+  }
+};
+
+// Residual = signed height above the floor (the sign follows the fitted normal) and equals
+// nᵀ p_W + d; points 0.3 m off the floor fail the quality screen (q = 1 − 0.9|r|/√range < 0.9).
+TEST(Associator, ResidualsAgainstKnownPlaneAndScreening) {
+  PlaneMapFixture f;
+  std::mt19937 rng(102);
+  constexpr int kInliers = 200, kOutliers = 50;
+  constexpr float kInlierOffset = 0.02f, kOutlierOffset = 0.3f;
+  std::vector<Eigen::Vector3f> scan = f.points_at(kInlierOffset, kInliers, rng);
+  const auto outliers = f.points_at(kOutlierOffset, kOutliers, rng);
+  scan.insert(scan.end(), outliers.begin(), outliers.end());
+
+  Associator screened(AssociationConfig{});
+  ConstraintSet set;
+  screened.associate(scan, f.T_WL, *f.map, set);
+  EXPECT_EQ(set.constraints.size(), static_cast<std::size_t>(kInliers));
+  EXPECT_EQ(set.rejected_screening, static_cast<std::size_t>(kOutliers));
+  EXPECT_EQ(set.rejected_no_neighbors + set.rejected_not_planar, 0u);
+  for (const Constraint& c : set.constraints) {
+    const Eigen::Vector3f p_W = (f.T_WL.cast<float>() * c.point);
+    EXPECT_NEAR(std::abs(c.normal.z()), 1.0f, 1e-4f);
+    EXPECT_NEAR(std::abs(c.residual), kInlierOffset, 1e-4f);
+    EXPECT_NEAR(c.residual, c.normal.dot(p_W) + c.d, 1e-5f);
+    EXPECT_GE(c.quality, 0.9f);
+  }
+
+  AssociationConfig off;
+  off.screening = false;
+  Associator unscreened(off);
+  unscreened.associate(scan, f.T_WL, *f.map, set);
+  EXPECT_EQ(set.constraints.size(), static_cast<std::size_t>(kInliers + kOutliers));
+  EXPECT_EQ(set.rejected_screening, 0u);
+}
+
+// Points far from the map find no neighbours; rescreen() re-evaluates residuals at a new pose.
+TEST(Associator, NoNeighboursAndRescreen) {
+  PlaneMapFixture f;
+  std::mt19937 rng(103);
+  Associator assoc(AssociationConfig{});
+  ConstraintSet set;
+  assoc.associate({Eigen::Vector3f(100, 100, 100)}, f.T_WL, *f.map, set);
+  EXPECT_EQ(set.rejected_no_neighbors, 1u);
+
+  assoc.associate(f.points_at(0.0f, 50, rng), f.T_WL, *f.map, set);
+  ASSERT_EQ(set.constraints.size(), 50u);
+  Eigen::Isometry3d lifted = f.T_WL;
+  lifted.translation().z() += 0.1;  // every residual becomes ±0.1 m: still kept
+  assoc.rescreen(lifted, set);
+  ASSERT_EQ(set.constraints.size(), 50u);
+  for (const Constraint& c : set.constraints) EXPECT_NEAR(std::abs(c.residual), 0.1f, 1e-4f);
+  lifted.translation().z() += 0.9;  // 1 m: beyond max_residual, all dropped
+  assoc.rescreen(lifted, set);
+  EXPECT_EQ(set.constraints.size(), 0u);
+  EXPECT_EQ(set.rejected_screening, 50u);
+}
+
+}  // namespace
+}  // namespace fuse

@@ -1,0 +1,59 @@
+// VoxelFilter (voxel_filter.hpp) against an exhaustive oracle: one point per occupied voxel, the
+// one closest to the voxel centre, indices in input order.
+#include "fuse/association/voxel_filter.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <tuple>
+
+#include "oracle.hpp"
+
+namespace fuse {
+namespace {
+
+constexpr double kVoxel = 0.5;  // a power of two: the cell of a point is exact in float
+
+std::vector<std::uint32_t> oracle_filter(const std::vector<Eigen::Vector3f>& points, double voxel) {
+  std::map<std::tuple<long, long, long>, std::pair<double, std::uint32_t>> best;
+  for (std::uint32_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3d p = points[i].cast<double>();
+    const Eigen::Vector3d cell = (p / voxel).array().floor();
+    const double d2 = (p - (cell.array() + 0.5).matrix() * voxel).squaredNorm();
+    const auto key = std::make_tuple(static_cast<long>(cell.x()), static_cast<long>(cell.y()), static_cast<long>(cell.z()));
+    auto it = best.find(key);
+    if (it == best.end() || d2 < it->second.first) best[key] = {d2, i};
+  }
+  std::vector<std::uint32_t> kept;
+  for (const auto& kv : best) kept.push_back(kv.second.second);
+  std::sort(kept.begin(), kept.end());
+  return kept;
+}
+
+TEST(VoxelFilter, KeepsThePointClosestToEachVoxelCentre) {
+  std::mt19937 rng(90);
+  VoxelFilter filter(kVoxel);
+  for (int n : {0, 1, 100, 20000}) {
+    const auto cloud = test::random_cloud(rng, n, 3.0f);  // ~ 1700 voxels: many points per voxel
+    std::vector<std::uint32_t> kept;
+    filter.filter(cloud, kept);
+    EXPECT_EQ(kept, oracle_filter(cloud, kVoxel)) << "n = " << n;
+  }
+}
+
+// Reusing the filter (its table is kept between calls) gives the same answer as a fresh one.
+TEST(VoxelFilter, ReuseGivesTheSameResult) {
+  std::mt19937 rng(91);
+  const auto big = test::random_cloud(rng, 5000, 10.0f);
+  const auto small = test::random_cloud(rng, 300, 2.0f);
+  VoxelFilter reused(kVoxel), fresh(kVoxel);
+  std::vector<std::uint32_t> a, b;
+  reused.filter(big, a);
+  reused.filter(small, a);
+  fresh.filter(small, b);
+  EXPECT_EQ(a, b);
+}
+
+}  // namespace
+}  // namespace fuse
