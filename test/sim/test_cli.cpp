@@ -72,6 +72,7 @@ TEST(SimCli, RejectsBadArguments) {
       {"--scenario", "corridor", "--seed", "99999999999999999999999", "--out", "x"},  // overflow
       {"--scenario", "corridor", "--seed", "1", "--duration", "0", "--out", "x"},
       {"--scenario", "corridor", "--seed", "1", "--duration", "nan", "--out", "x"},
+      {"--scenario", "corridor", "--seed", "1", "--duration", "0.05", "--out", "x"},  // < one frame
       {"--scenario", "corridor", "--seed", "1", "--duration", "3s", "--out", "x"},
       {"--scenario", "corridor", "--seed", "1", "--lidar", "hdl64", "--out", "x"},
       {"--scenario", "corridor", "--seed", "1", "--format", "bag", "--out", "x"},

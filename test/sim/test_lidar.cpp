@@ -106,6 +106,26 @@ World hollow_cube(double h) {
 }
 }  // namespace
 
+TEST(SimLidar, Spinning32InCampus) {
+  const Scenario s = make_scenario("campus", 1, 1);
+  const LidarConfig c = LidarConfig::spinning32();
+  LidarSimulator sim(c, s.world, *s.trajectory, default_T_imu_lidar(), 1);
+  const fuse::LidarScan scan = sim.scan(100, s.trajectory->t_begin());
+  std::set<int> rings;
+  int beyond_40 = 0;
+  for (const fuse::LidarPoint& p : scan.points) {
+    const double r = std::sqrt(double(p.x) * p.x + double(p.y) * p.y + double(p.z) * p.z);
+    ASSERT_GE(r, c.blind_range_m);
+    ASSERT_LE(r, c.max_range_m);
+    beyond_40 += r > 40.0;
+    rings.insert(p.ring);
+  }
+  EXPECT_GT(scan.points.size(), 20000u);  // upper beams see the sky: fewer than 57600
+  EXPECT_LT(scan.points.size(), 57600u);
+  EXPECT_GT(beyond_40, 100);
+  EXPECT_EQ(rings.size(), 32u);
+}
+
 TEST(SimLidar, BlindZoneAndMaxRange) {
   const Trajectory tr(make_rounded_polyline({{{0, 0, 0}, 0}, {{-10, 0, 0}, 0}}), TimeLawConfig{}, MotionConfig{}, 0.0);
   const LidarConfig c = LidarConfig::mid360();  // frame 0 is during the static start

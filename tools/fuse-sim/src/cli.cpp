@@ -14,6 +14,7 @@ namespace fuse::sim {
 namespace {
 
 constexpr double kMaxDurationS = 1e5;  // sanity bound for --duration
+constexpr double kMinDurationS = 0.1;  // one LiDAR frame
 
 std::uint64_t parse_u64(const std::string& option, const std::string& text) {
   if (text.empty() || !std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; }))
@@ -31,9 +32,9 @@ double parse_duration(const std::string& text) {
   const double v = std::strtod(text.c_str(), &end);
   if (text.empty() || end == text.c_str() || *end != '\0' || errno == ERANGE)
     throw CliError("--duration: expected a number of seconds, got '" + text + "'");
-  if (!std::isfinite(v) || v <= 0.0 || v > kMaxDurationS)
-    throw CliError("--duration: must be in (0, " + std::to_string(static_cast<int>(kMaxDurationS)) + "] s, got '" +
-                   text + "'");
+  if (!std::isfinite(v) || v < kMinDurationS || v > kMaxDurationS)
+    throw CliError("--duration: must be between 0.1 s (one LiDAR frame) and " +
+                   std::to_string(static_cast<int>(kMaxDurationS)) + " s, got '" + text + "'");
   return v;
 }
 
