@@ -1,6 +1,5 @@
 #include "fuse/sim/lidar_model.hpp"
 
-#include <algorithm>
 #include <cmath>
 
 namespace fuse::sim {
@@ -32,9 +31,7 @@ fuse::LidarScan LidarSimulator::scan(std::uint64_t frame_index, double t0) {
     if (config_.angular_noise_sigma_rad > 0.0) {
       const double d_az = rng_.normal(config_.angular_noise_sigma_rad);
       const double d_el = rng_.normal(config_.angular_noise_sigma_rad);
-      const double el = std::asin(std::clamp(shot.dir.z(), -1.0, 1.0));
-      const double az = std::atan2(shot.dir.y(), shot.dir.x());
-      dir_l = direction(az + d_az, el + d_el);
+      dir_l = direction(shot.azimuth + d_az, shot.elevation + d_el);
     }
     const double range_noise = rng_.normal(config_.range_noise_sigma_m);  // drawn for every shot
     const Eigen::Vector3d dir_w = s.R * (R_il * dir_l);

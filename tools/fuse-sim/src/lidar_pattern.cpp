@@ -59,7 +59,9 @@ void mid360_shots(const LidarConfig& c, std::uint64_t frame, std::vector<Shot>& 
     Shot& s = shots[static_cast<std::size_t>(i)];
     s.t_rel = static_cast<float>(i / c.point_rate_hz);
     s.ring = static_cast<std::uint16_t>(line);
-    s.dir = direction(kTwoPi * az_turns, el_mid + el_amp * std::cos(kTwoPi * el_turns));
+    s.azimuth = kTwoPi * az_turns;
+    s.elevation = el_mid + el_amp * std::cos(kTwoPi * el_turns);
+    s.dir = direction(s.azimuth, s.elevation);
   }
 }
 
@@ -73,7 +75,9 @@ void spinning_shots(const LidarConfig& c, std::vector<Shot>& shots) {
     for (int b = 0; b < c.beams; ++b, ++k) {
       shots[k].t_rel = t_rel;
       shots[k].ring = static_cast<std::uint16_t>(b);
-      shots[k].dir = direction(az, (c.elevation_min_deg + b * el_step) * kDeg);
+      shots[k].azimuth = az;
+      shots[k].elevation = (c.elevation_min_deg + b * el_step) * kDeg;
+      shots[k].dir = direction(az, shots[k].elevation);
     }
   }
 }

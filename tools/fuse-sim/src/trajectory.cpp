@@ -20,20 +20,17 @@ Jet oscillation_sum(const std::vector<Oscillation>& terms, double tau) {
   return sum;
 }
 
-// Rz(yaw) Ry(pitch) Rx(roll).
-Eigen::Matrix3d rotation_zyx(double yaw, double pitch, double roll) {
-  return (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
-          Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
-      .toRotationMatrix();
-}
-
-// Body angular velocity of R = Rz(psi) Ry(theta) Rx(phi) from the Euler rates:
+// R = Rz(psi) Ry(theta) Rx(phi) and the body angular velocity from the Euler rates:
 // w = [phi' - psi' sin(theta), theta' cos(phi) + psi' sin(phi) cos(theta),
 //      -theta' sin(phi) + psi' cos(phi) cos(theta)].
-Eigen::Vector3d body_rate_zyx(const Jet& yaw, const Jet& pitch, const Jet& roll) {
+void attitude_zyx(const Jet& yaw, const Jet& pitch, const Jet& roll, Eigen::Matrix3d& R, Eigen::Vector3d& w) {
+  const double sy = std::sin(yaw.v), cy = std::cos(yaw.v);
   const double sp = std::sin(pitch.v), cp = std::cos(pitch.v);
   const double sr = std::sin(roll.v), cr = std::cos(roll.v);
-  return {roll.d - yaw.d * sp, pitch.d * cr + yaw.d * sr * cp, -pitch.d * sr + yaw.d * cr * cp};
+  R << cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr,  //
+      sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr,   //
+      -sp, cp * sr, cp * cr;
+  w = {roll.d - yaw.d * sp, pitch.d * cr + yaw.d * sr * cp, -pitch.d * sr + yaw.d * cr * cp};
 }
 
 }  // namespace
@@ -56,7 +53,7 @@ TrajectoryState Trajectory::state(double t) const {
   const Jet vertical = envelope * oscillation_sum(motion_.vertical, tau);
 
   // p = c(u) + lateral * n(heading) + vertical * z, with the left normal n = (-sin, cos, 0).
-  const Jet nx = -1.0 * sin(heading), ny = cos(heading);
+  const Jet nx = -1.0 * sin(heading), ny = cos(heading);  // (sin and cos of one angle: cheap, kept simple)
   Jet p[3];
   for (int i = 0; i < 3; ++i) p[i] = compose(c.c[i], c.c1[i], c.c2[i], u);
   p[0] = p[0] + lateral * nx;
@@ -72,8 +69,7 @@ TrajectoryState Trajectory::state(double t) const {
   out.p = {p[0].v, p[1].v, p[2].v};
   out.v = {p[0].d, p[1].d, p[2].d};
   out.a = {p[0].dd, p[1].dd, p[2].dd};
-  out.R = rotation_zyx(yaw.v, pitch.v, roll.v);
-  out.omega_body = body_rate_zyx(yaw, pitch, roll);
+  attitude_zyx(yaw, pitch, roll, out.R, out.omega_body);
   return out;
 }
 

@@ -45,6 +45,7 @@ struct Shot {
   float t_rel = 0.f;
   std::uint16_t ring = 0;
   Eigen::Vector3d dir = Eigen::Vector3d::UnitX();
+  double azimuth = 0.0, elevation = 0.0;  ///< radians; dir = direction(azimuth, elevation)
 };
 
 /// Fills `shots` with the nominal shots of frame `frame_index` (frames count from 0).
