@@ -1,0 +1,112 @@
+// Estimator input validation (estimator.hpp/.cpp): bad IMU samples and scans are counted under
+// the names used in estimator.cpp and never crash the estimator.
+#include "fuse/estimation/estimator.hpp"
+
+#include <gtest/gtest.h>
+
+#include <limits>
+
+namespace fuse {
+namespace {
+
+constexpr double kImuDt = 0.005;
+
+ImuSample still_imu(double t) {
+  ImuSample s;
+  s.t = t;
+  s.accel = Eigen::Vector3d(0, 0, 9.81);
+  return s;
+}
+
+std::uint64_t counter(const Estimator& est, const std::string& name) {
+  const auto it = est.counters().find(name);
+  return it == est.counters().end() ? 0 : it->second;
+}
+
+constexpr int kInitSamples = 300;  // 1.5 s of still IMU (static initialisation needs 1 s by default)
+
+/// Feeds the still samples; returns the time of the next (not yet fed) sample.
+double initialise(Estimator& est) {
+  for (int k = 0; k < kInitSamples; ++k) est.ingest(still_imu(k * kImuDt));
+  EXPECT_TRUE(est.initialised());
+  return kInitSamples * kImuDt;
+}
+
+TEST(EstimatorIngest, NonFiniteImuIsCounted) {
+  Estimator est{EstimatorConfig{}};
+  const double t = initialise(est);
+  ImuSample bad = still_imu(t);
+  bad.gyro.x() = std::numeric_limits<double>::quiet_NaN();
+  est.ingest(bad);
+  ImuSample bad_time = still_imu(std::numeric_limits<double>::infinity());
+  est.ingest(bad_time);
+  EXPECT_EQ(counter(est, "imu_not_finite"), 2u);
+  est.ingest(still_imu(t));  // the next good sample at the same time is accepted
+  EXPECT_EQ(counter(est, "imu_time_not_increasing"), 0u);
+  EXPECT_TRUE(est.query(t).ok());
+  EXPECT_TRUE(est.query(t).x.all_finite());
+}
+
+TEST(EstimatorIngest, TimeGoingBackwardsIsRefused) {
+  Estimator est{EstimatorConfig{}};
+  initialise(est);
+  const double newest = (kInitSamples - 1) * kImuDt;  // the last sample fed
+  est.ingest(still_imu(newest - 0.1));
+  est.ingest(still_imu(newest));  // equal time: not after the previous one
+  EXPECT_EQ(counter(est, "imu_time_not_increasing"), 2u);
+  EXPECT_EQ(est.query(newest + 0.01).status, QueryStatus::kInFuture);  // nothing was propagated past it
+}
+
+TEST(EstimatorIngest, DataGapIsFlaggedAndBridged) {
+  Estimator est{EstimatorConfig{}};
+  initialise(est);
+  constexpr double kGap = 0.5;  // s, above divergence.max_imu_gap = 0.1 s
+  const double after_gap = (kInitSamples - 1) * kImuDt + kGap;
+  est.ingest(still_imu(after_gap));
+  EXPECT_EQ(counter(est, "imu_gap"), 1u);
+  EXPECT_TRUE(est.query(after_gap).ok());  // the sample is still used
+  EXPECT_LT(est.query(after_gap).x.v.norm(), 1e-6);
+}
+
+TEST(EstimatorIngest, EmptyAndBadScansAreCounted) {
+  Estimator est{EstimatorConfig{}};
+  LidarScan early;
+  early.t_start = 0.0;
+  early.t_end = 0.1;
+  est.ingest(early);
+  EXPECT_EQ(counter(est, "scan_before_init"), 1u);
+
+  const double t = initialise(est);
+  LidarScan empty;
+  empty.t_start = t - 0.2;
+  empty.t_end = t - 0.1;
+  ScanReport rep;
+  EXPECT_NO_THROW(rep = est.ingest(empty));
+  EXPECT_EQ(counter(est, "scan_empty"), 1u);
+  EXPECT_FALSE(rep.updated);
+  EXPECT_EQ(rep.points_kept, 0u);
+
+  LidarScan blind;  // only returns inside the blind zone (min_range)
+  blind.t_start = t - 0.09;
+  blind.t_end = t - 0.05;
+  LidarPoint p;
+  p.x = 0.1f;
+  blind.points.assign(10, p);
+  EXPECT_NO_THROW(est.ingest(blind));
+  EXPECT_EQ(counter(est, "scan_empty"), 2u);
+
+  LidarScan reversed;
+  reversed.t_start = t;
+  reversed.t_end = t - 0.01;
+  est.ingest(reversed);
+  EXPECT_EQ(counter(est, "scan_bad_time"), 1u);
+
+  LidarScan old_scan;
+  old_scan.t_start = t - 0.3;
+  old_scan.t_end = t - 0.2;  // older than the last scan
+  est.ingest(old_scan);
+  EXPECT_EQ(counter(est, "scan_out_of_order"), 1u);
+}
+
+}  // namespace
+}  // namespace fuse

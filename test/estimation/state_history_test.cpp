@@ -1,0 +1,182 @@
+// StateHistory (state_history.hpp): manifold interpolation, query status, ensure_entry and
+// correct() with re-propagation of the stored IMU samples.
+#include "fuse/estimation/state_history.hpp"
+
+#include <gtest/gtest.h>
+
+#include "test_helpers.hpp"
+
+namespace fuse {
+namespace {
+
+constexpr double kDt = 0.005;
+constexpr double kT0 = 100.0;
+
+/// A varied IMU signal (rotating, accelerating) at time t.
+ImuSample imu_at(double t) {
+  ImuSample s;
+  s.t = t;
+  s.gyro = Eigen::Vector3d(0.3 * std::sin(t), 0.2 * std::cos(2 * t), 0.5);
+  s.accel = Eigen::Vector3d(0.5 * std::cos(t), 0.2, 9.81 + 0.3 * std::sin(3 * t));
+  return s;
+}
+
+StateCovariance initial_P() { return 1e-4 * StateCovariance::Identity(); }
+
+/// A history reset at kT0 and fed `n` IMU samples after it.
+StateHistory make_history(int n, double length_s = 5.0) {
+  StateHistory h(StateHistoryConfig{length_s}, ImuNoiseConfig{});
+  NavState x0;
+  x0.v = Eigen::Vector3d(1, 0, 0);
+  h.reset(kT0, x0, initial_P(), imu_at(kT0));
+  for (int k = 1; k <= n; ++k) h.add_imu(imu_at(kT0 + k * kDt));
+  return h;
+}
+
+void expect_same_state(const NavState& a, const NavState& b, double tol) {
+  EXPECT_LT((a.p - b.p).norm(), tol);
+  EXPECT_LT((a.R - b.R).norm(), tol);
+  EXPECT_LT((a.v - b.v).norm(), tol);
+  EXPECT_LT((a.bg - b.bg).norm(), tol);
+  EXPECT_LT((a.ba - b.ba).norm(), tol);
+}
+
+// Between two entries the query is the geodesic: slerp of the attitude (checked with Eigen's
+// quaternion slerp, an independent implementation) and lerp of position and velocity.
+TEST(StateHistory, QueryBetweenEntriesIsSlerpAndLerp) {
+  const StateHistory h = make_history(10);
+  const auto entries = h.entries_between(kT0 + 3 * kDt, kT0 + 4 * kDt);
+  ASSERT_EQ(entries.size(), 2u);
+  const NavState& x0 = entries[0]->x;
+  const NavState& x1 = entries[1]->x;
+  for (double a : {0.0, 0.25, 0.5, 0.9}) {
+    const StateQuery q = h.query(kT0 + (3 + a) * kDt);
+    ASSERT_TRUE(q.ok());
+    const Eigen::Quaterniond slerp = Eigen::Quaterniond(x0.R).slerp(a, Eigen::Quaterniond(x1.R));
+    EXPECT_LT((q.x.R - slerp.toRotationMatrix()).norm(), 1e-12) << "a " << a;
+    EXPECT_LT((q.x.p - ((1 - a) * x0.p + a * x1.p)).norm(), 1e-12);
+    EXPECT_LT((q.x.v - ((1 - a) * x0.v + a * x1.v)).norm(), 1e-12);
+    EXPECT_LT((q.P - ((1 - a) * entries[0]->P + a * entries[1]->P)).norm(), 1e-15);
+  }
+}
+
+// A constant body rate is interpolated exactly: R(t) = R0·Exp(ω t) between the entries.
+TEST(StateHistory, InterpolationIsExactForConstantRate) {
+  const Eigen::Vector3d omega(0.4, -0.3, 1.2);
+  StateHistory h(StateHistoryConfig{}, ImuNoiseConfig{});
+  ImuSample s;
+  s.t = kT0;
+  s.gyro = omega;
+  s.accel = Eigen::Vector3d(0, 0, 9.81);
+  h.reset(kT0, NavState{}, initial_P(), s);
+  s.t += 0.1;
+  h.add_imu(s);
+  const StateQuery q = h.query(kT0 + 0.037);
+  EXPECT_LT(test::rotation_error(q.x.R, so3::Exp(omega * 0.037)), 1e-12);
+}
+
+TEST(StateHistory, StatusValues) {
+  StateHistory empty(StateHistoryConfig{}, ImuNoiseConfig{});
+  EXPECT_EQ(empty.query(kT0).status, QueryStatus::kNotInitialised);
+  EXPECT_FALSE(empty.query(kT0).ok());
+
+  constexpr int kSamples = 20;
+  StateHistory h = make_history(kSamples);
+  const double newest = kT0 + kSamples * kDt;
+  EXPECT_EQ(h.query(kT0).status, QueryStatus::kCorrected);  // the reset state is a posterior
+  EXPECT_EQ(h.query(kT0 + 2.5 * kDt).status, QueryStatus::kPropagated);
+  EXPECT_EQ(h.query(newest).status, QueryStatus::kPropagated);
+  EXPECT_EQ(h.query(kT0 - 0.01).status, QueryStatus::kTooOld);
+  EXPECT_EQ(h.query(newest + 0.01).status, QueryStatus::kInFuture);
+  EXPECT_FALSE(h.query(newest + 0.01).ok());
+
+  const double t_corr = kT0 + 10 * kDt;
+  h.correct(t_corr, h.query(t_corr).x, h.query(t_corr).P);
+  EXPECT_EQ(h.query(t_corr - 3 * kDt).status, QueryStatus::kCorrected);
+  EXPECT_EQ(h.query(t_corr).status, QueryStatus::kCorrected);
+  EXPECT_EQ(h.query(t_corr + kDt).status, QueryStatus::kPropagated);
+  EXPECT_STREQ(to_string(QueryStatus::kTooOld), "too_old");
+}
+
+// Entries older than length_s are dropped: they become too old.
+TEST(StateHistory, BoundedLength) {
+  constexpr double kLength = 0.5;
+  const StateHistory h = make_history(400, kLength);  // 2 s of IMU
+  EXPECT_NEAR(h.newest().t - h.oldest_time(), kLength, 2 * kDt);
+  EXPECT_EQ(h.query(kT0 + 1.0).status, QueryStatus::kTooOld);
+  EXPECT_TRUE(h.query(h.newest().t - 0.4).ok());
+}
+
+// Correcting a past entry and re-propagating equals propagating from the corrected state
+// directly with the same IMU samples (trapezoidal average of consecutive samples).
+TEST(StateHistory, CorrectionRepropagatesLaterEntries) {
+  constexpr int kSamples = 60, kCorrected = 20;
+  StateHistory h = make_history(kSamples);
+  const double t_c = kT0 + kCorrected * kDt;
+  NavState x_c = h.query(t_c).x;
+  x_c.p += Eigen::Vector3d(0.1, -0.2, 0.05);
+  x_c.v += Eigen::Vector3d(0.01, 0.0, -0.02);
+  x_c.R = x_c.R * so3::Exp(Eigen::Vector3d(0.01, 0.02, -0.01));
+  x_c.bg += Eigen::Vector3d(1e-3, 0, 0);
+  const StateCovariance P_c = 2e-5 * StateCovariance::Identity();
+  h.correct(t_c, x_c, P_c);
+
+  NavState x = x_c;
+  StateCovariance P = P_c;
+  for (int k = kCorrected + 1; k <= kSamples; ++k) {
+    const ImuSample a = imu_at(kT0 + (k - 1) * kDt), b = imu_at(kT0 + k * kDt);
+    propagate(x, &P, 0.5 * (a.gyro + b.gyro), 0.5 * (a.accel + b.accel), b.t - a.t, ImuNoiseConfig{});
+  }
+  expect_same_state(h.newest().x, x, 1e-12);
+  EXPECT_LT((h.newest().P - P).cwiseAbs().maxCoeff(), 1e-15);
+  expect_same_state(h.query(t_c).x, x_c, 1e-15);
+}
+
+// A scan time between IMU samples: inserting the entry when the scan arrives before the next IMU
+// sample (extrapolation, then add_imu) gives the same history as when the IMU sample arrives first
+// (add_imu, then ensure_entry splitting the step). Both hold the older sample up to the scan time.
+TEST(StateHistory, EnsureEntryIsIndependentOfArrivalOrder) {
+  constexpr int kBefore = 10;
+  const double t_scan = kT0 + (kBefore + 0.4) * kDt;
+  const ImuSample next = imu_at(kT0 + (kBefore + 1) * kDt);
+  const ImuSample after = imu_at(kT0 + (kBefore + 2) * kDt);
+
+  StateHistory scan_first = make_history(kBefore);
+  ASSERT_TRUE(scan_first.ensure_entry(t_scan));
+  scan_first.add_imu(next);
+  scan_first.add_imu(after);
+
+  StateHistory imu_first = make_history(kBefore);
+  imu_first.add_imu(next);
+  ASSERT_TRUE(imu_first.ensure_entry(t_scan));
+  imu_first.add_imu(after);
+
+  ASSERT_EQ(scan_first.size(), imu_first.size());
+  for (double t : {t_scan, next.t, after.t}) expect_same_state(scan_first.query(t).x, imu_first.query(t).x, 1e-12);
+  EXPECT_LT((scan_first.newest().P - imu_first.newest().P).cwiseAbs().maxCoeff(), 1e-15);
+}
+
+TEST(StateHistory, EnsureEntryExistingAndTooOld) {
+  StateHistory h = make_history(10);
+  const std::size_t n = h.size();
+  EXPECT_TRUE(h.ensure_entry(kT0 + 5 * kDt));  // already an entry
+  EXPECT_EQ(h.size(), n);
+  EXPECT_FALSE(h.ensure_entry(kT0 - 1.0));
+  EXPECT_EQ(h.size(), n);
+  EXPECT_TRUE(h.ensure_entry(kT0 + 5.5 * kDt));
+  EXPECT_EQ(h.size(), n + 1);
+}
+
+// ensure_entry only inserts a (propagated) entry: no posterior exists at that time, so the status
+// there must stay "propagated" (QueryStatus::kCorrected is "at or before the last LiDAR correction").
+TEST(StateHistory, EnsureEntryDoesNotMarkTheStateCorrected) {
+  StateHistory h = make_history(20);
+  const double t_scan = kT0 + 10.5 * kDt;
+  ASSERT_TRUE(h.ensure_entry(t_scan));
+  EXPECT_EQ(h.last_correction_time(), kT0);
+  EXPECT_EQ(h.query(t_scan).status, QueryStatus::kPropagated);
+  EXPECT_EQ(h.query(kT0 + 5 * kDt).status, QueryStatus::kPropagated);
+}
+
+}  // namespace
+}  // namespace fuse
