@@ -23,13 +23,13 @@ std::uint64_t mix(std::uint64_t k) {  // splitmix64 finaliser: spreads keys over
 }
 }  // namespace
 
-void VoxelFilter::filter(const std::vector<Eigen::Vector3f>& points, std::vector<std::uint32_t>& kept) {
+void VoxelFilter::filter(const std::vector<Eigen::Vector3f>& points, float voxel_size, std::vector<std::uint32_t>& kept) {
   kept.clear();
   std::size_t capacity = 16;
   while (capacity < 2 * points.size()) capacity <<= 1;
   table_.assign(capacity, Slot{kEmpty, 0, 0.f});
   const std::uint64_t mask = capacity - 1;
-  const float inv = 1.0f / voxel_size_;
+  const float inv = 1.0f / voxel_size;
   for (std::uint32_t i = 0; i < points.size(); ++i) {
     const Eigen::Vector3f v = points[i] * inv;
     const Eigen::Vector3f cell(std::floor(v.x()), std::floor(v.y()), std::floor(v.z()));

@@ -16,6 +16,8 @@ double ms_since(Clock::time_point t0) {
 
 void PreprocessConfig::load(ConfigNode& node) {
   node.get("min_range", min_range).get("max_range", max_range).get("voxel_size", voxel_size).get("deskew", deskew);
+  node.get("max_points", max_points);
+  node.check(max_points >= 100, "max_points", "must be at least 100");
   node.check(min_range >= 0.0, "min_range", "must be >= 0");
   node.check(max_range > min_range, "max_range", "must be greater than min_range");
   node.check(voxel_size >= 0.01 && voxel_size <= 5.0, "voxel_size", "must be in [0.01, 5] m");
@@ -101,7 +103,7 @@ Estimator::Estimator(const EstimatorConfig& config)
       backend_(make_update_backend(config.update)),
       map_policy_(make_map_policy(config.map)),
       associator_(config.association),
-      voxel_filter_(config.preprocess.voxel_size) {
+      voxel_size_(static_cast<float>(config.preprocess.voxel_size)) {
   config_.measurement.extrinsic_jacobian = config.estimate_extrinsic;
 }
 
@@ -206,9 +208,8 @@ ScanReport Estimator::ingest(const LidarScan& scan) {
     raw_.push_back(v);
     in_range_.push_back(i);
   }
-  voxel_filter_.filter(raw_, kept_);
-  kept_raw_.resize(kept_.size());
-  for (std::size_t i = 0; i < kept_.size(); ++i) kept_raw_[i] = in_range_[kept_[i]];
+  downsample();
+  order_spatially();
   report.points_kept = kept_raw_.size();
   if (kept_raw_.empty()) {
     count("scan_empty", "scan with no usable point at t=" + std::to_string(scan.t_end));
@@ -270,6 +271,48 @@ ScanReport Estimator::ingest(const LidarScan& scan) {
   report.ms_total = ms_since(t0);
   check_divergence(report);
   return report;
+}
+
+void Estimator::downsample() {
+  // Voxel grid at the size the previous scan needed (never below the configured size); enlarge it
+  // while the scan keeps more than max_points, and relax it back when a scan keeps far fewer.
+  constexpr int kMaxVoxelGrowth = 4;
+  constexpr float kGrowthMargin = 1.05f;  // aim a little below max_points
+  constexpr float kRelax = 0.9f;          // per-scan shrink towards the configured size
+  const float configured = static_cast<float>(config_.preprocess.voxel_size);
+  const auto max_points = static_cast<float>(config_.preprocess.max_points);
+  voxel_filter_.filter(raw_, voxel_size_, kept_);
+  for (int i = 0; i < kMaxVoxelGrowth && static_cast<float>(kept_.size()) > max_points; ++i) {
+    voxel_size_ *= kGrowthMargin * std::sqrt(static_cast<float>(kept_.size()) / max_points);
+    voxel_filter_.filter(raw_, voxel_size_, kept_);
+  }
+  if (static_cast<float>(kept_.size()) < 0.5f * max_points) voxel_size_ = std::max(configured, kRelax * voxel_size_);
+}
+
+void Estimator::order_spatially() {
+  // Map queries of neighbouring points touch the same voxels: visiting points in Morton (Z-order)
+  // of 1 m cells keeps those voxels in cache, which matters more than anything else for speed on
+  // large maps. The order does not change the result beyond floating-point summation order.
+  constexpr float kCell = 1.0f;
+  auto spread = [](std::uint32_t v) {  // interleave the low 10 bits with two zero bits each
+    std::uint64_t x = v & 0x3ff;
+    x = (x | (x << 16)) & 0x030000FF;
+    x = (x | (x << 8)) & 0x0300F00F;
+    x = (x | (x << 4)) & 0x030C30C3;
+    x = (x | (x << 2)) & 0x09249249;
+    return x;
+  };
+  keyed_.resize(kept_.size());
+  for (std::size_t i = 0; i < kept_.size(); ++i) {
+    const Eigen::Vector3f& p = raw_[kept_[i]];
+    const auto cx = static_cast<std::uint32_t>(static_cast<std::int32_t>(std::floor(p.x() / kCell)) + 512);
+    const auto cy = static_cast<std::uint32_t>(static_cast<std::int32_t>(std::floor(p.y() / kCell)) + 512);
+    const auto cz = static_cast<std::uint32_t>(static_cast<std::int32_t>(std::floor(p.z() / kCell)) + 512);
+    keyed_[i] = {spread(cx) | (spread(cy) << 1) | (spread(cz) << 2), in_range_[kept_[i]]};
+  }
+  std::sort(keyed_.begin(), keyed_.end());
+  kept_raw_.resize(keyed_.size());
+  for (std::size_t i = 0; i < keyed_.size(); ++i) kept_raw_[i] = keyed_[i].second;
 }
 
 void Estimator::check_divergence(const ScanReport& report) {

@@ -78,14 +78,19 @@ bool StateHistory::ensure_entry(double t) {
   mid.t = t;
   entries_.insert(entries_.begin() + static_cast<std::ptrdiff_t>(i) + 1, mid);
   // The step after the split now starts at t with the same held input: re-propagate.
-  correct(t, entries_[i + 1].x, entries_[i + 1].P);
+  repropagate_from(i + 1);
   return true;
 }
 
 void StateHistory::correct(double t, const NavState& x, const StateCovariance& P) {
-  std::size_t i = find_at_or_before(t);
+  const std::size_t i = find_at_or_before(t);
   entries_[i].x = x;
   entries_[i].P = P;
+  repropagate_from(i);
+  last_correction_t_ = std::max(last_correction_t_, t);
+}
+
+void StateHistory::repropagate_from(std::size_t i) {
   for (std::size_t k = i + 1; k < entries_.size(); ++k) {
     const Entry& prev = entries_[k - 1];
     Entry& cur = entries_[k];
@@ -93,7 +98,6 @@ void StateHistory::correct(double t, const NavState& x, const StateCovariance& P
     cur.P = prev.P;
     propagate(cur.x, &cur.P, 0.5 * (prev.gyro + cur.gyro), 0.5 * (prev.accel + cur.accel), cur.t - prev.t, noise_);
   }
-  last_correction_t_ = std::max(last_correction_t_, t);
 }
 
 StateQuery StateHistory::query(double t) const {

@@ -10,9 +10,8 @@ namespace fuse {
 
 class VoxelFilter {
  public:
-  explicit VoxelFilter(double voxel_size) : voxel_size_(static_cast<float>(voxel_size)) {}
   /// Writes into `kept` the indices (into points) of the points retained, in input order.
-  void filter(const std::vector<Eigen::Vector3f>& points, std::vector<std::uint32_t>& kept);
+  void filter(const std::vector<Eigen::Vector3f>& points, float voxel_size, std::vector<std::uint32_t>& kept);
 
  private:
   struct Slot {
@@ -20,7 +19,6 @@ class VoxelFilter {
     std::uint32_t index;
     float dist2;
   };
-  float voxel_size_;
   std::vector<Slot> table_;  ///< reused between calls
 };
 

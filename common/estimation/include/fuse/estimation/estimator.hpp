@@ -43,6 +43,10 @@ struct PreprocessConfig {
   double min_range = 0.5;    ///< m: closer returns (the sensor's blind zone, the carrier) are dropped
   double max_range = 60.0;   ///< m
   double voxel_size = 0.5;   ///< m: downsampling before deskew and association
+  /// Cap on the points kept per scan: when the voxel filter keeps more, the voxel is enlarged
+  /// (by √(kept/max), up to kMaxVoxelGrowth times) so the per-scan cost stays bounded on dense
+  /// or open scenes whatever the sensor.
+  std::size_t max_points = 3000;
   bool deskew = true;        ///< ablation switch
   void load(ConfigNode& node);
 };
@@ -134,6 +138,9 @@ class Estimator {
   std::unique_ptr<MapPolicy> map_policy_;
   Associator associator_;
   VoxelFilter voxel_filter_;
+  float voxel_size_;  ///< downsampling voxel in use (adapts to max_points)
+  void downsample();
+  void order_spatially();
   Deskewer deskewer_;
 
   double last_imu_t_ = -1.0;
@@ -143,6 +150,7 @@ class Estimator {
   // Per-scan buffers reused to avoid allocation on the hot path.
   std::vector<Eigen::Vector3f> raw_, points_L_, points_W_;
   std::vector<std::uint32_t> in_range_, kept_, kept_raw_;
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed_;
   ConstraintSet constraints_;
 };
 

@@ -69,6 +69,8 @@ class StateHistory {
 
  private:
   std::size_t find_at_or_before(double t) const;
+  /// Recomputes every entry after index i from entry i and the stored IMU measurements.
+  void repropagate_from(std::size_t i);
   void trim();
 
   StateHistoryConfig config_;
