@@ -59,12 +59,12 @@ void write_timing(const std::string& path, const std::vector<ScanReport>& report
 void write_diagnostics(const std::string& path, const std::vector<ScanReport>& reports) {
   std::ofstream f(path);
   f << "scan,t,updated,constraints,rejected_no_neighbors,rejected_not_planar,rejected_screening,"
-       "min_eig_translation,min_eig_rotation,min_gamma,iterations,converged,map_points,map_inserted\n";
+       "min_eig_translation,min_eig_rotation,min_eig_ratio,min_gamma,iterations,converged,map_points,map_inserted\n";
   for (std::size_t i = 0; i < reports.size(); ++i) {
     const auto& r = reports[i];
     f << i << ',' << std::fixed << std::setprecision(6) << r.t << ',' << r.updated << ',' << r.constraints << ','
       << r.rejected_no_neighbors << ',' << r.rejected_not_planar << ',' << r.rejected_screening << ','
-      << std::scientific << std::setprecision(4) << r.min_eig_translation << ',' << r.min_eig_rotation << ','
+      << std::scientific << std::setprecision(4) << r.min_eig_translation << ',' << r.min_eig_rotation << ',' << r.min_eig_ratio << ','
       << std::fixed << r.min_gamma << ',' << r.iterations << ',' << r.converged << ',' << r.map_points << ','
       << r.map_inserted << '\n';
   }

@@ -43,6 +43,7 @@ DegeneracyReport attenuate_degenerate_directions(LinearSystem& system, const Deg
     report.gamma(i) = smoothstep((ratio - config.ratio_low) / (config.ratio_high - config.ratio_low));
   }
   report.min_gamma = report.gamma.minCoeff();
+  report.min_ratio = std::max(report.eigenvalues(0), 0.0) / lambda_max;
   if (!config.enabled || report.min_gamma >= 1.0) return report;
 
   // Λ'_n = U diag(γλ) Uᵀ, and the projector M_n = U diag(γ) Uᵀ for the gradient and cross terms.

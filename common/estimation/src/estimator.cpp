@@ -253,6 +253,7 @@ ScanReport Estimator::ingest(const LidarScan& scan) {
     report.min_eig_translation = result.degeneracy.min_eigenvalue_translation;
     report.min_eig_rotation = result.degeneracy.min_eigenvalue_rotation;
     report.min_gamma = result.degeneracy.min_gamma;
+    report.min_eig_ratio = result.degeneracy.min_ratio;
     report.ms_association = model.association_ms();
   }
   report.ms_update = ms_since(t_stage) - report.ms_association;

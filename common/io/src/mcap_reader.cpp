@@ -4,6 +4,7 @@
 #include <cstring>
 #include <filesystem>
 
+#include "fuse/core/logging.hpp"
 #include "fuse/io/compression.hpp"
 #include "fuse/io/crc32.hpp"
 
@@ -13,9 +14,8 @@ namespace {
 using mcap::Op;
 /// Piece size for streaming CRC over records the reader does not keep (e.g. attachments).
 constexpr std::uint64_t kCrcPieceBytes = 1u << 20;
-/// Smallest possible file: magic, Header (two empty strings), Footer, magic.
-constexpr std::uint64_t kMinFileSize =
-    2 * mcap::kMagicSize + 2 * mcap::kRecordPrefixSize + 2 * sizeof(std::uint32_t) + mcap::kFooterContentSize;
+/// Smallest possible start of a file: magic, Header (two empty strings).
+constexpr std::uint64_t kMinHeadSize = mcap::kMagicSize + mcap::kRecordPrefixSize + 2 * sizeof(std::uint32_t);
 
 std::string at(std::uint64_t offset) { return " at offset " + std::to_string(offset); }
 
@@ -35,30 +35,59 @@ McapReader::McapReader(const std::string& path) : path_(path) {
   if (!in_) throw InputError("cannot open MCAP file '" + path + "'");
   in_.seekg(0, std::ios::end);
   size_ = static_cast<std::uint64_t>(in_.tellg());
-  if (size_ < kMinFileSize) {
-    throw InputError("'" + path + "' is not an MCAP file: " + std::to_string(size_) + " bytes, the minimum is " +
-                     std::to_string(kMinFileSize));
+  if (size_ < kMinHeadSize) {
+    throw InputError("'" + path + "' is not an MCAP file: " + std::to_string(size_) + " bytes, a magic and a Header need " +
+                     std::to_string(kMinHeadSize));
   }
-  const auto magic = read_at(0, mcap::kMagicSize, "leading magic");
-  if (std::memcmp(magic.data(), mcap::kMagic, mcap::kMagicSize) != 0) {
-    throw InputError("'" + path + "' is not an MCAP file (bad leading magic)");
+  read_header();
+  // Without a valid Footer (spec: last record, then the trailing magic) the file was not closed:
+  // it is salvaged by the linear scan. Damage found later, in the data section, stays an error.
+  if (const auto missing = read_footer()) {
+    enter_salvage("'" + path + "' is truncated at byte offset " + std::to_string(size_) + " (no footer: " + *missing + ")");
+  } else if (footer_.summary_start != 0) {
+    try {
+      read_summary();
+    } catch (const InputError& e) {
+      enter_salvage("'" + path + "': summary section unreadable (" + e.what() + ")");
+    }
   }
-  const auto prefix = read_at(mcap::kMagicSize, mcap::kRecordPrefixSize, "Header record");
-  if (opcode(prefix) != static_cast<std::uint8_t>(Op::kHeader)) {
-    throw InputError("'" + path + "': first record is " + mcap::op_name(opcode(prefix)) + ", expected Header");
-  }
-  const std::uint64_t header_len = content_length(prefix);
-  const auto content = read_at(mcap::kMagicSize + mcap::kRecordPrefixSize, header_len, "Header record");
-  ByteReader r(content.data(), content.size(), path + ": Header record" + at(mcap::kMagicSize));
-  header_ = mcap::parse_header(r);
-  header_end_ = mcap::kMagicSize + mcap::kRecordPrefixSize + header_len;
-
-  read_footer();
-  if (footer_.summary_start != 0) read_summary();
   if (!indexed_) {
     ScanTotals totals;
     blocks_ = scan_data_section(true, totals);
   }
+}
+
+void McapReader::read_header() {
+  // Spec: the file starts with the magic, then a Header record.
+  const auto magic = read_at(0, mcap::kMagicSize, "leading magic");
+  if (std::memcmp(magic.data(), mcap::kMagic, mcap::kMagicSize) != 0) {
+    throw InputError("'" + path_ + "' is not an MCAP file (bad leading magic)");
+  }
+  const auto prefix = read_at(mcap::kMagicSize, mcap::kRecordPrefixSize, "Header record");
+  if (opcode(prefix) != static_cast<std::uint8_t>(Op::kHeader)) {
+    throw InputError("'" + path_ + "': first record is " + mcap::op_name(opcode(prefix)) + ", expected Header");
+  }
+  const std::uint64_t header_len = content_length(prefix);
+  const auto content = read_at(mcap::kMagicSize + mcap::kRecordPrefixSize, header_len, "Header record");
+  ByteReader r(content.data(), content.size(), path_ + ": Header record" + at(mcap::kMagicSize));
+  header_ = mcap::parse_header(r);
+  header_end_ = mcap::kMagicSize + mcap::kRecordPrefixSize + header_len;
+}
+
+void McapReader::enter_salvage(const std::string& reason) {
+  salvage_ = true;
+  salvage_reason_ = reason;
+  indexed_ = false;
+  footer_ = {};
+  schemas_.clear();
+  channels_.clear();
+  statistics_.reset();
+  metadata_.clear();
+  chunk_indexes_.clear();
+  blocks_.clear();
+  logger("io")->warn("{}; reading it in salvage mode: the messages of the complete records before the first "
+                     "damaged one are read, then an error reports where reading stopped",
+                     reason);
 }
 
 std::vector<std::uint8_t> McapReader::read_at(std::uint64_t offset, std::uint64_t n, const std::string& what) {
@@ -74,21 +103,24 @@ std::vector<std::uint8_t> McapReader::read_at(std::uint64_t offset, std::uint64_
   return buf;
 }
 
-void McapReader::read_footer() {
+std::optional<std::string> McapReader::read_footer() {
+  // Spec: the file ends with a Footer record (fixed 20-byte content) and the magic.
+  constexpr std::uint64_t kTail = mcap::kRecordPrefixSize + mcap::kFooterContentSize + mcap::kMagicSize;
+  if (size_ - header_end_ < kTail) return "no room for a Footer after the Header";
   const std::uint64_t magic_pos = size_ - mcap::kMagicSize;
   const auto magic = read_at(magic_pos, mcap::kMagicSize, "trailing magic");
   if (std::memcmp(magic.data(), mcap::kMagic, mcap::kMagicSize) != 0) {
-    throw InputError(path_ + ": no trailing MCAP magic (file truncated, or still being written)");
+    return "no trailing MCAP magic (file cut short, or still being written)";
   }
   footer_pos_ = magic_pos - mcap::kRecordPrefixSize - mcap::kFooterContentSize;
-  if (footer_pos_ < header_end_) throw InputError(path_ + ": Header record overlaps the Footer");
   const auto record = read_at(footer_pos_, mcap::kRecordPrefixSize + mcap::kFooterContentSize, "Footer record");
   if (opcode(record) != static_cast<std::uint8_t>(Op::kFooter) || content_length(record) != mcap::kFooterContentSize) {
-    throw InputError(path_ + ": no valid Footer record" + at(footer_pos_) + " (found opcode " +
-                     std::to_string(opcode(record)) + ", length " + std::to_string(content_length(record)) + ")");
+    return "no valid Footer record" + at(footer_pos_) + " (found opcode " + std::to_string(opcode(record)) +
+           ", length " + std::to_string(content_length(record)) + ")";
   }
   ByteReader r(record.data() + mcap::kRecordPrefixSize, mcap::kFooterContentSize, path_ + ": Footer" + at(footer_pos_));
   footer_ = mcap::parse_footer(r);
+  return std::nullopt;
 }
 
 void McapReader::read_summary() {
@@ -165,95 +197,141 @@ void McapReader::read_summary() {
 }
 
 std::uint64_t McapReader::data_section_limit() const {
+  if (salvage_) return size_;  // no trustworthy Footer: the data may run to the end of the file
   return footer_.summary_start != 0 ? footer_.summary_start : footer_pos_;
 }
 
 std::vector<McapReader::Block> McapReader::scan_data_section(bool collect, ScanTotals& totals) {
   const std::uint64_t limit = data_section_limit();
-  std::vector<Block> blocks;
-  Crc32 crc;  // data-section CRC: every byte from the file start to the DataEnd record
+  Scan scan{collect, totals, {}, {}};
   {
     const auto head = read_at(0, header_end_, "magic and Header");
-    crc.update(head.data(), head.size());
+    scan.crc.update(head.data(), head.size());
   }
   std::uint64_t pos = header_end_;
   for (;;) {
-    if (limit - pos < mcap::kRecordPrefixSize) {
-      throw InputError(path_ + ": data section ends" + at(pos) + " without a DataEnd record (file truncated?)");
+    const std::uint64_t recovered = totals.messages;
+    std::optional<std::uint64_t> next;
+    try {
+      next = scan_record(pos, limit, scan);
+    } catch (const InputError& e) {
+      if (!salvage_) throw;
+      // Salvage: a record cut off or damaged ends the data; everything before it is kept.
+      totals.messages = recovered;
+      note_salvage_end(pos, recovered, e.what());
+      break;
     }
-    const auto prefix = read_at(pos, mcap::kRecordPrefixSize, "record prefix");
-    const std::uint8_t op = opcode(prefix);
-    const std::uint64_t len = content_length(prefix);
-    const std::string where = path_ + ": " + mcap::op_name(op) + " record" + at(pos);
-    if (len > limit - pos - mcap::kRecordPrefixSize) {
-      throw InputError(where + ": length " + std::to_string(len) + " runs past the end of the data section at " +
-                       std::to_string(limit));
+    if (!next) {
+      if (salvage_) note_salvage_end(pos, totals.messages, "DataEnd record reached, the summary/Footer after it is missing or unreadable");
+      break;
     }
-    const std::uint64_t content_pos = pos + mcap::kRecordPrefixSize;
-    if (op == static_cast<std::uint8_t>(Op::kDataEnd)) {
-      const auto content = read_at(content_pos, len, "DataEnd record");
-      ByteReader r(content.data(), content.size(), where);
-      const auto data_end = mcap::parse_data_end(r);
-      if (data_end.data_section_crc != 0 && data_end.data_section_crc != crc.value()) {
-        throw InputError(where + ": data section CRC mismatch (recorded " + std::to_string(data_end.data_section_crc) +
-                         ", computed " + std::to_string(crc.value()) + ")");
-      }
-      return blocks;
-    }
-    crc.update(prefix.data(), prefix.size());
-    const bool keep = op == static_cast<std::uint8_t>(Op::kChunk) || op == static_cast<std::uint8_t>(Op::kMessage) ||
-                      op == static_cast<std::uint8_t>(Op::kSchema) || op == static_cast<std::uint8_t>(Op::kChannel) ||
-                      op == static_cast<std::uint8_t>(Op::kMetadata);
-    if (!keep) {  // not needed: only stream it through the CRC
-      for (std::uint64_t done = 0; done < len;) {
-        const std::uint64_t n = std::min(kCrcPieceBytes, len - done);
-        const auto piece = read_at(content_pos + done, n, where);
-        crc.update(piece.data(), piece.size());
-        done += n;
-      }
-      pos = content_pos + len;
-      continue;
-    }
-    auto record = read_at(pos, mcap::kRecordPrefixSize + len, where);
-    crc.update(record.data() + mcap::kRecordPrefixSize, len);
-    Block block{pos, record.size(), false, 0, 0, false};
-    auto track = [&](const mcap::MessageHeader& h, const std::uint8_t*, std::size_t) {
-      block.start_time = block.has_messages ? std::min(block.start_time, h.log_time) : h.log_time;
-      block.end_time = block.has_messages ? std::max(block.end_time, h.log_time) : h.log_time;
-      block.has_messages = true;
-      ++totals.messages;
-      ++totals.per_channel[h.channel_id];
-    };
-    if (op == static_cast<std::uint8_t>(Op::kChunk)) {
-      mcap::ChunkHeader h;
-      const auto records = chunk_records(record, pos, h);
-      parse_records(records.data(), records.size(), where, track);
-      ++totals.chunks;
-      block.chunk = true;
-      if (block.has_messages && (block.start_time < h.message_start_time || block.end_time > h.message_end_time)) {
-        throw InputError(where + ": messages lie outside the chunk's declared time range");
-      }
-      if (collect && block.has_messages) blocks.push_back(block);
-    } else if (op == static_cast<std::uint8_t>(Op::kMetadata)) {
-      ByteReader r(record.data() + mcap::kRecordPrefixSize, len, where);
-      auto metadata = mcap::parse_metadata(r);
-      if (collect) metadata_.push_back(std::move(metadata));
-    } else {
-      parse_records(record.data(), record.size(), path_ + ": top-level records", track);
-      // Consecutive top-level messages form one run block.
-      if (collect && block.has_messages) {
-        Block* last = blocks.empty() ? nullptr : &blocks.back();
-        if (last && !last->chunk && last->offset + last->length == pos) {
-          last->length += block.length;
-          last->start_time = std::min(last->start_time, block.start_time);
-          last->end_time = std::max(last->end_time, block.end_time);
-        } else {
-          blocks.push_back(block);
-        }
-      }
-    }
-    pos = content_pos + len;
+    pos = *next;
   }
+  return std::move(scan.blocks);
+}
+
+void McapReader::note_salvage_end(std::uint64_t pos, std::uint64_t recovered, const std::string& why) {
+  salvage_error_ = salvage_reason_ + "; salvage mode recovered " + std::to_string(recovered) +
+                   " messages from the complete records before byte offset " + std::to_string(pos) +
+                   "; reading stopped there: " + why;
+}
+
+std::optional<std::uint64_t> McapReader::scan_record(std::uint64_t pos, std::uint64_t limit, Scan& scan) {
+  if (limit - pos < mcap::kRecordPrefixSize) {
+    throw InputError(path_ + ": data section ends" + at(pos) + " without a DataEnd record (file truncated?)");
+  }
+  const auto prefix = read_at(pos, mcap::kRecordPrefixSize, "record prefix");
+  const std::uint8_t op = opcode(prefix);
+  const std::uint64_t len = content_length(prefix);
+  const std::string where = path_ + ": " + mcap::op_name(op) + " record" + at(pos);
+  if (len > limit - pos - mcap::kRecordPrefixSize) {
+    throw InputError(where + ": length " + std::to_string(len) + " runs past the end of the data section at " +
+                     std::to_string(limit) + " (record cut off)");
+  }
+  const std::uint64_t content_pos = pos + mcap::kRecordPrefixSize;
+  if (op == static_cast<std::uint8_t>(Op::kDataEnd)) {
+    check_data_end(read_at(content_pos, len, "DataEnd record"), where, scan);
+    return std::nullopt;
+  }
+  scan.crc.update(prefix.data(), prefix.size());
+  const bool keep = op == static_cast<std::uint8_t>(Op::kChunk) || op == static_cast<std::uint8_t>(Op::kMessage) ||
+                    op == static_cast<std::uint8_t>(Op::kSchema) || op == static_cast<std::uint8_t>(Op::kChannel) ||
+                    op == static_cast<std::uint8_t>(Op::kMetadata);
+  if (!keep) {  // not needed: only stream it through the CRC
+    stream_crc(content_pos, len, where, scan);
+    return content_pos + len;
+  }
+  const auto record = read_at(pos, mcap::kRecordPrefixSize + len, where);
+  scan.crc.update(record.data() + mcap::kRecordPrefixSize, len);
+  if (op == static_cast<std::uint8_t>(Op::kMetadata)) {
+    ByteReader r(record.data() + mcap::kRecordPrefixSize, len, where);
+    auto metadata = mcap::parse_metadata(r);
+    if (scan.collect) metadata_.push_back(std::move(metadata));
+  } else {
+    scan_message_block(record, pos, scan);
+  }
+  return content_pos + len;
+}
+
+void McapReader::check_data_end(const std::vector<std::uint8_t>& content, const std::string& where, const Scan& scan) {
+  ByteReader r(content.data(), content.size(), where);
+  const auto data_end = mcap::parse_data_end(r);
+  // Spec (DataEnd): CRC of every byte from the file start up to the DataEnd record; 0 = not computed.
+  if (data_end.data_section_crc != 0 && data_end.data_section_crc != scan.crc.value()) {
+    throw InputError(where + ": data section CRC mismatch (recorded " + std::to_string(data_end.data_section_crc) +
+                     ", computed " + std::to_string(scan.crc.value()) + ")");
+  }
+}
+
+void McapReader::stream_crc(std::uint64_t offset, std::uint64_t n, const std::string& where, Scan& scan) {
+  for (std::uint64_t done = 0; done < n;) {
+    const std::uint64_t piece_size = std::min(kCrcPieceBytes, n - done);
+    const auto piece = read_at(offset + done, piece_size, where);
+    scan.crc.update(piece.data(), piece.size());
+    done += piece_size;
+  }
+}
+
+void McapReader::scan_message_block(const std::vector<std::uint8_t>& record, std::uint64_t pos, Scan& scan) {
+  const std::uint8_t op = opcode(record);
+  const std::string where = path_ + ": " + mcap::op_name(op) + " record" + at(pos);
+  Block block{pos, record.size(), false, 0, 0, false};
+  std::uint64_t messages = 0;
+  std::map<std::uint16_t, std::uint64_t> per_channel;
+  auto track = [&](const mcap::MessageHeader& h, const std::uint8_t*, std::size_t) {
+    block.start_time = block.has_messages ? std::min(block.start_time, h.log_time) : h.log_time;
+    block.end_time = block.has_messages ? std::max(block.end_time, h.log_time) : h.log_time;
+    block.has_messages = true;
+    ++messages;
+    ++per_channel[h.channel_id];
+  };
+  if (op == static_cast<std::uint8_t>(Op::kChunk)) {
+    mcap::ChunkHeader h;
+    const auto records = chunk_records(record, pos, h);  // throws on a CRC mismatch before any parsing
+    parse_records(records.data(), records.size(), where, track);
+    block.chunk = true;
+    if (block.has_messages && (block.start_time < h.message_start_time || block.end_time > h.message_end_time)) {
+      throw InputError(where + ": messages lie outside the chunk's declared time range");
+    }
+    ++scan.totals.chunks;
+    if (scan.collect && block.has_messages) scan.blocks.push_back(block);
+  } else {
+    parse_records(record.data(), record.size(), path_ + ": top-level records", track);
+    // Consecutive top-level messages form one run block.
+    if (scan.collect && block.has_messages) {
+      Block* last = scan.blocks.empty() ? nullptr : &scan.blocks.back();
+      if (last && !last->chunk && last->offset + last->length == pos) {
+        last->length += block.length;
+        last->start_time = std::min(last->start_time, block.start_time);
+        last->end_time = std::max(last->end_time, block.end_time);
+      } else {
+        scan.blocks.push_back(block);
+      }
+    }
+  }
+  // Counted only once the whole record has been read, so a damaged record adds nothing.
+  scan.totals.messages += messages;
+  for (const auto& [channel, count] : per_channel) scan.totals.per_channel[channel] += count;
 }
 
 void McapReader::register_schema(mcap::Schema s, const std::string& where) {
@@ -400,7 +478,7 @@ bool McapReader::next(McapMessage& out) {
         out = take(loaded_.back());
         return true;
       }
-      if (pending_next_ == pending_.size()) return false;
+      if (pending_next_ == pending_.size()) return finish();
       loaded_.clear();
       loaded_.emplace_back();
       load(*pending_[pending_next_++], loaded_.back());
@@ -415,7 +493,7 @@ bool McapReader::next(McapMessage& out) {
     load(*b, loaded_.back());
     if (!loaded_.back().messages.empty()) heap_.emplace(loaded_.back().messages[0].header.log_time, b->offset, loaded_.size() - 1);
   }
-  if (heap_.empty()) return false;
+  if (heap_.empty()) return finish();
   const auto [t, offset, index] = heap_.top();
   heap_.pop();
   Loaded& l = loaded_[index];
@@ -424,7 +502,14 @@ bool McapReader::next(McapMessage& out) {
   return true;
 }
 
+bool McapReader::finish() const {
+  // Salvage mode: every recovered message has been returned; the end of the data is an error.
+  if (salvage_) throw InputError(salvage_error_);
+  return false;
+}
+
 void McapReader::verify() {
+  if (salvage_) throw InputError(salvage_error_);
   ScanTotals totals;
   scan_data_section(false, totals);
   if (!statistics_) return;

@@ -67,6 +67,7 @@ McapSource::McapSource(const std::string& path) : path_(path), reader_(path), va
 std::string McapSource::describe() const {
   std::string text = "MCAP recording '" + path_ + "'";
   if (reader_.statistics()) text += " (" + std::to_string(reader_.statistics()->message_count) + " messages)";
+  if (reader_.salvage_mode()) text += " (damaged or truncated: salvage mode)";
   return text;
 }
 
@@ -95,10 +96,21 @@ std::optional<SensorEvent> McapSource::decode(const McapMessage& m) {
   return event;
 }
 
+bool McapSource::read(McapMessage& m) {
+  if (read_error_) return false;
+  try {
+    return reader_.next(m);
+  } catch (const InputError& e) {
+    // Kept until the events already read are delivered (salvage of a truncated file).
+    read_error_ = e;
+    return false;
+  }
+}
+
 bool McapSource::fill() {
   if (!lookahead_) {
     McapMessage m;
-    if (!reader_.next(m)) return false;
+    if (!read(m)) return false;
     lookahead_ = std::move(m);
   }
   const std::uint64_t t = lookahead_->header.log_time;
@@ -106,7 +118,7 @@ bool McapSource::fill() {
   for (;;) {
     if (auto e = decode(*lookahead_)) group.push_back(std::move(*e));
     McapMessage m;
-    if (!reader_.next(m)) {
+    if (!read(m)) {
       lookahead_.reset();
       break;
     }
@@ -124,7 +136,9 @@ bool McapSource::fill() {
 bool McapSource::next(SensorEvent& out) {
   for (;;) {
     while (ready_.empty()) {
-      if (!fill()) return false;
+      if (fill()) continue;
+      if (read_error_) throw *read_error_;  // after every event read before the error
+      return false;
     }
     out = std::move(ready_.front());
     ready_.pop_front();

@@ -24,6 +24,7 @@ struct DegeneracyReport {
   Eigen::Matrix<double, 6, 1> eigenvalues = Eigen::Matrix<double, 6, 1>::Zero();  ///< normalised, ascending
   Eigen::Matrix<double, 6, 1> gamma = Eigen::Matrix<double, 6, 1>::Ones();
   double min_gamma = 1.0;
+  double min_ratio = 1.0;  ///< smallest normalised eigenvalue over the largest (1 = isotropic)
   double min_eigenvalue_translation = 0.0;  ///< smallest eigenvalue of the translation block Λ_pp
   double min_eigenvalue_rotation = 0.0;     ///< smallest eigenvalue of the rotation block Λ_θθ
 };

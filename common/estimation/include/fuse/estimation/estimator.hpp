@@ -100,7 +100,7 @@ struct ScanReport {
   std::size_t constraints = 0, rejected_no_neighbors = 0, rejected_not_planar = 0, rejected_screening = 0;
   int iterations = 0;
   bool converged = false;
-  double min_eig_translation = 0.0, min_eig_rotation = 0.0, min_gamma = 1.0;
+  double min_eig_translation = 0.0, min_eig_rotation = 0.0, min_gamma = 1.0, min_eig_ratio = 1.0;
   std::size_t map_points = 0, map_inserted = 0;
   double ms_deskew = 0.0, ms_association = 0.0, ms_update = 0.0, ms_map = 0.0, ms_total = 0.0;
 };

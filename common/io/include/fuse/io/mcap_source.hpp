@@ -1,5 +1,7 @@
 // SensorSource over an MCAP recording written by RecordingWriter (or any MCAP file with the
 // same channels): `imu` and `lidar/scan` CDR samples in log-time order; other channels ignored.
+// A read error (e.g. the end of a truncated file read in salvage mode) is raised by next() only
+// after every event read before it has been delivered.
 #pragma once
 
 #include <deque>
@@ -23,6 +25,8 @@ class McapSource : public SensorSource {
  private:
   /// Reads every message sharing the next log time, decoded, IMU before scans.
   bool fill();
+  /// reader_.next(), keeping an InputError in read_error_ (then false) instead of throwing.
+  bool read(McapMessage& m);
   std::optional<SensorEvent> decode(const McapMessage& m);
 
   std::string path_;
@@ -30,6 +34,7 @@ class McapSource : public SensorSource {
   SourceValidator validator_;
   std::optional<Eigen::Isometry3d> T_imu_lidar_;
   std::optional<McapMessage> lookahead_;
+  std::optional<InputError> read_error_;
   std::deque<SensorEvent> ready_;
   std::set<std::uint16_t> unknown_channels_;
 };
