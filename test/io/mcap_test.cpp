@@ -1,5 +1,6 @@
 // MCAP reader and writer: the real rosbag2 file, round trips for every compression, time-range
-// seeks through the chunk index, and truncated / corrupted files (InputError, never a crash).
+// seeks through the chunk index, and truncated / corrupted files (InputError, never a crash;
+// truncated files are salvaged: the complete messages first, then InputError).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -239,12 +240,49 @@ std::vector<std::size_t> sample_offsets(std::size_t size, std::size_t count) {
   return offsets;
 }
 
+/// Reads in file order until the end or an InputError (its text goes to `error`).
+std::vector<McapMessage> read_until_error(McapReader& r, std::string& error) {
+  std::vector<McapMessage> out;
+  try {
+    McapMessage m;
+    r.start({0, UINT64_MAX, ReadOrder::kFile});
+    while (r.next(m)) out.push_back(m);
+  } catch (const InputError& e) {
+    error = e.what();
+  }
+  return out;
+}
+
+void expect_same_message(const McapMessage& a, const McapMessage& b) {
+  EXPECT_EQ(a.header.channel_id, b.header.channel_id);
+  EXPECT_EQ(a.header.sequence, b.header.sequence);
+  EXPECT_EQ(a.header.log_time, b.header.log_time);
+  EXPECT_EQ(a.data, b.data);
+}
+
+// Every truncated file ends in InputError (at open when the Header is cut, else after salvage),
+// and what salvage returns is a prefix of the full file's messages.
 void check_truncations(const std::string& source, TempDir& dir) {
+  std::string error;
+  McapReader whole(source);
+  const auto all = read_until_error(whole, error);
+  ASSERT_TRUE(error.empty()) << error;
   const auto bytes = test::read_bytes(source);
   const std::string copy = dir.file("truncated.mcap");
   for (const std::size_t n : sample_offsets(bytes.size(), 150)) {
+    SCOPED_TRACE("truncated to " + std::to_string(n) + " bytes");
     test::write_bytes(copy, bytes, n);
-    EXPECT_TRUE(fails_with_input_error(copy, false)) << "truncated to " << n << " bytes";
+    EXPECT_TRUE(fails_with_input_error(copy, false));
+    try {
+      McapReader r(copy);
+      EXPECT_TRUE(r.salvage_mode());
+      error.clear();
+      const auto got = read_until_error(r, error);
+      EXPECT_NE(error.find("truncated"), std::string::npos) << error;
+      ASSERT_LE(got.size(), all.size());
+      for (std::size_t i = 0; i < got.size(); ++i) expect_same_message(got[i], all[i]);
+    } catch (const InputError&) {  // the Header is cut: nothing to salvage
+    }
   }
 }
 
@@ -257,6 +295,89 @@ TEST(McapReader, TruncatedFilesRaiseInputError) {
   const std::string nav2 = test::shared_data(kNav2);
   FUSE_REQUIRE_SHARED(nav2);
   check_truncations(nav2, dir);
+}
+
+/// Chunk `index` of a complete file, from its summary.
+mcap::ChunkIndex chunk_at(const std::string& path, std::size_t index) {
+  McapReader r(path);
+  EXPECT_GT(r.chunk_indexes().size(), index);
+  return r.chunk_indexes().at(index);
+}
+
+// Salvage stops at the first Chunk failing its CRC, even when later chunks are intact: the
+// messages before it come back, then InputError names that chunk and its offset.
+TEST(McapReader, SalvageStopsAtAChunkFailingItsCrc) {
+  TempDir dir;
+  McapWriterOptions options;
+  options.compression = Compression::kNone;  // a flipped byte reaches the CRC check
+  options.chunk_size_bytes = 16 * 1024;
+  const auto messages = make_messages(200, 4);
+  write_file(dir.file("own.mcap"), options, messages);
+  const auto bad = chunk_at(dir.file("own.mcap"), 2), later = chunk_at(dir.file("own.mcap"), 5);
+  auto bytes = test::read_bytes(dir.file("own.mcap"));
+  bytes[bad.chunk_start_offset + bad.chunk_length - 10] ^= 0x5A;  // inside the chunk's records
+  test::write_bytes(dir.file("cut.mcap"), bytes, later.chunk_start_offset + later.chunk_length / 2);
+
+  McapReader r(dir.file("cut.mcap"));
+  ASSERT_TRUE(r.salvage_mode());
+  std::string error;
+  const auto got = read_until_error(r, error);
+  ASSERT_GT(got.size(), 0u);
+  ASSERT_LT(got.size(), messages.size());
+  for (std::size_t i = 0; i < got.size(); ++i) EXPECT_EQ(got[i].header.sequence, messages[i].sequence);
+  // Log times increase strictly, so the chunks before the damaged one hold exactly these.
+  const auto before = std::count_if(messages.begin(), messages.end(),
+                                    [&](const TestMessage& m) { return m.log_time < bad.message_start_time; });
+  EXPECT_EQ(got.size(), static_cast<std::size_t>(before));
+  EXPECT_NE(error.find("truncated"), std::string::npos) << error;
+  EXPECT_NE(error.find("Chunk record at offset " + std::to_string(bad.chunk_start_offset)), std::string::npos) << error;
+  EXPECT_NE(error.find("CRC mismatch"), std::string::npos) << error;
+  EXPECT_THROW(r.verify(), InputError);
+}
+
+// A complete, indexed file with a damaged chunk is not salvaged: the error names the chunk.
+TEST(McapReader, CorruptChunkInACompleteFileIsAnErrorNamingIt) {
+  TempDir dir;
+  McapWriterOptions options;
+  options.compression = Compression::kNone;
+  options.chunk_size_bytes = 16 * 1024;
+  write_file(dir.file("own.mcap"), options, make_messages(200, 4));
+  const auto bad = chunk_at(dir.file("own.mcap"), 3);
+  auto bytes = test::read_bytes(dir.file("own.mcap"));
+  bytes[bad.chunk_start_offset + bad.chunk_length - 10] ^= 0x5A;
+  test::write_bytes(dir.file("bad.mcap"), bytes, bytes.size());
+
+  McapReader r(dir.file("bad.mcap"));
+  EXPECT_FALSE(r.salvage_mode());
+  EXPECT_TRUE(r.has_summary());
+  std::string error;
+  read_until_error(r, error);
+  EXPECT_NE(error.find("Chunk record at offset " + std::to_string(bad.chunk_start_offset)), std::string::npos) << error;
+  EXPECT_EQ(error.find("salvage"), std::string::npos) << error;
+}
+
+// A complete file whose summary fails its CRC: the data section is scanned (salvage), every
+// message comes back, then InputError reports the unreadable summary.
+TEST(McapReader, UnreadableSummaryIsSalvagedThenReported) {
+  TempDir dir;
+  McapWriterOptions options;
+  options.chunk_size_bytes = 16 * 1024;
+  const auto messages = make_messages(150, 6);
+  write_file(dir.file("own.mcap"), options, messages);
+  auto bytes = test::read_bytes(dir.file("own.mcap"));
+  bytes[bytes.size() - 60] ^= 0x5A;  // inside the summary offsets, before the Footer
+  test::write_bytes(dir.file("bad.mcap"), bytes, bytes.size());
+
+  McapReader r(dir.file("bad.mcap"));
+  EXPECT_TRUE(r.salvage_mode());
+  EXPECT_FALSE(r.has_summary());
+  ASSERT_EQ(r.metadata().size(), 1u);
+  std::string error;
+  const auto got = read_until_error(r, error);
+  ASSERT_EQ(got.size(), messages.size());
+  for (std::size_t i = 0; i < got.size(); ++i) EXPECT_EQ(got[i].data, messages[i].data);
+  EXPECT_NE(error.find("summary section unreadable"), std::string::npos) << error;
+  EXPECT_NE(error.find("DataEnd record reached"), std::string::npos) << error;
 }
 
 // Our files carry every CRC: a flipped byte anywhere is detected (at open, while reading, or

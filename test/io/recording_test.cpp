@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
+#include <set>
 
 #include "fuse/io/cdr_codec.hpp"
 #include "fuse/io/mcap_reader.hpp"
@@ -224,6 +226,166 @@ TEST(McapSource, TiesPutImuFirst) {
   while (source->next(e)) kinds.push_back(e.kind);
   using K = SensorEvent::Kind;
   EXPECT_EQ(kinds, (std::vector<K>{K::kImu, K::kImu, K::kLidar, K::kImu}));
+}
+
+// --- Salvage of truncated recordings --------------------------------------------------------
+
+/// A recording of 2 s (200 Hz IMU, 10 Hz scans of 300 points) in chunks of about 16 KiB.
+void write_chunked_recording(const std::string& path, Compression compression) {
+  RecordingWriterConfig config;
+  config.compression = compression;
+  config.chunk_size_bytes = 16 * 1024;
+  RecordingWriter w(path, config);
+  w.set_calibration(test_calibration());
+  for (int i = 0; i <= 400; ++i) {
+    w.write(make_imu(10.0 + 0.005 * i, i));
+    if (i % 20 == 0 && i > 0) w.write(make_scan(10.0 + 0.005 * (i - 20), 10.0 + 0.005 * i, i / 20, 300));
+  }
+  w.close();
+}
+
+template <typename T>
+T read_le(const std::vector<std::uint8_t>& bytes, std::size_t offset) {
+  T v{};
+  std::memcpy(&v, bytes.data() + offset, sizeof v);  // MCAP integers are little-endian, as is the host
+  return v;
+}
+
+/// Where each chunk of a complete file ends and how many messages it holds. Read independently of
+/// the salvage path: the ChunkIndex records of the summary and the MessageIndex records after
+/// each chunk (spec: opcode 0x07, channel id u16, then an array of 16-byte (log_time, offset)).
+struct ChunkExtent {
+  std::uint64_t end = 0;
+  std::size_t messages = 0;
+};
+std::vector<ChunkExtent> chunk_extents(const std::string& path) {
+  const auto bytes = test::read_bytes(path);
+  McapReader reader(path);
+  std::vector<ChunkExtent> out;
+  for (const auto& ci : reader.chunk_indexes()) {
+    ChunkExtent c{ci.chunk_start_offset + ci.chunk_length, 0};
+    for (const auto& [channel, offset] : ci.message_index_offsets) {
+      EXPECT_EQ(bytes.at(offset), 0x07) << "MessageIndex expected at " << offset;
+      EXPECT_EQ(read_le<std::uint16_t>(bytes, offset + 9), channel);
+      c.messages += read_le<std::uint32_t>(bytes, offset + 11) / 16;
+    }
+    out.push_back(c);
+  }
+  return out;
+}
+
+/// Messages in the chunks that end at or before byte `n`.
+std::size_t messages_before(const std::vector<ChunkExtent>& chunks, std::uint64_t n) {
+  std::size_t count = 0;
+  for (const auto& c : chunks) count += c.end <= n ? c.messages : 0;
+  return count;
+}
+
+void expect_same(const SensorEvent& a, const SensorEvent& b) {
+  ASSERT_EQ(a.kind, b.kind);
+  if (a.kind == SensorEvent::Kind::kImu) {
+    expect_same(a.imu, b.imu);
+  } else {
+    expect_same(a.scan, b.scan);
+  }
+}
+
+/// Every event of a source until it ends; `error` receives the InputError that ended it, if any.
+std::vector<SensorEvent> drain(SensorSource& source, std::string& error) {
+  std::vector<SensorEvent> events;
+  SensorEvent e;
+  try {
+    while (source.next(e)) events.push_back(e);
+  } catch (const InputError& x) {
+    error = x.what();
+  }
+  return events;
+}
+
+/// Byte counts to cut a file of `size` bytes at: the head, a sweep, every chunk end +-1, the tail.
+std::vector<std::uint64_t> cut_points(std::uint64_t size, const std::vector<ChunkExtent>& chunks) {
+  std::vector<std::uint64_t> cuts;
+  for (std::uint64_t n = 0; n < 120; ++n) cuts.push_back(n);
+  for (std::uint64_t k = 1; k < 120; ++k) cuts.push_back(size * k / 120);
+  for (const auto& c : chunks) cuts.insert(cuts.end(), {c.end - 1, c.end, c.end + 1});
+  for (std::uint64_t n = 1; n <= 120; ++n) cuts.push_back(size - n);
+  return cuts;
+}
+
+class TruncatedRecording : public ::testing::TestWithParam<Compression> {};
+
+// A recording cut at any byte: the source yields exactly the messages of the chunks complete
+// before the cut (the full file's first events, same order and content), then raises
+// InputError naming the file and the truncation. Never a clean end, never another exception.
+TEST_P(TruncatedRecording, YieldsTheCompleteChunksThenReportsTheTruncation) {
+  TempDir dir;
+  const std::string full_path = dir.file("full.mcap"), cut_path = dir.file("cut.mcap");
+  write_chunked_recording(full_path, GetParam());
+  const auto chunks = chunk_extents(full_path);
+  ASSERT_GE(chunks.size(), 8u);
+  std::string error;
+  const auto full = drain(*open_sensor_source(full_path), error);
+  ASSERT_TRUE(error.empty()) << error;
+  ASSERT_EQ(full.size(), messages_before(chunks, UINT64_MAX));  // clean data: one event per message
+
+  const auto bytes = test::read_bytes(full_path);
+  std::set<std::size_t> counts_seen;
+  for (const std::uint64_t n : cut_points(bytes.size(), chunks)) {
+    SCOPED_TRACE("cut to " + std::to_string(n) + " of " + std::to_string(bytes.size()) + " bytes");
+    test::write_bytes(cut_path, bytes, n);
+    const std::size_t expected = messages_before(chunks, n);
+    std::unique_ptr<SensorSource> source;
+    try {
+      source = open_sensor_source(cut_path);
+    } catch (const InputError& e) {
+      EXPECT_EQ(expected, 0u) << "open failed: " << e.what();  // only a file cut inside its Header
+      continue;
+    }
+    error.clear();
+    const auto got = drain(*source, error);
+    ASSERT_EQ(got.size(), expected);
+    for (std::size_t i = 0; i < got.size(); ++i) expect_same(got[i], full[i]);
+    EXPECT_NE(error.find("truncated"), std::string::npos) << error;
+    EXPECT_NE(error.find(cut_path), std::string::npos) << error;
+    EXPECT_NE(error.find("byte offset " + std::to_string(n)), std::string::npos) << error;
+    counts_seen.insert(expected);
+  }
+  EXPECT_GE(counts_seen.size(), chunks.size() + 1) << "cuts before, between and after every chunk";
+}
+
+INSTANTIATE_TEST_SUITE_P(AllCompressions, TruncatedRecording,
+                         ::testing::Values(Compression::kNone, Compression::kZstd, Compression::kLz4),
+                         [](const auto& info) {
+                           return info.param == Compression::kNone   ? std::string("none")
+                                  : info.param == Compression::kZstd ? std::string("zstd")
+                                                                     : std::string("lz4");
+                         });
+
+// Cut inside the first chunk: the schemas, channels and calibration before it are read, no
+// event is delivered, and the first next() raises the truncation.
+TEST(McapSource, FileCutInsideTheFirstChunkYieldsNothingThenThrows) {
+  TempDir dir;
+  write_chunked_recording(dir.file("full.mcap"), Compression::kZstd);
+  McapReader full(dir.file("full.mcap"));
+  ASSERT_FALSE(full.chunk_indexes().empty());
+  const auto& first = full.chunk_indexes().front();
+  const auto bytes = test::read_bytes(dir.file("full.mcap"));
+  test::write_bytes(dir.file("cut.mcap"), bytes, first.chunk_start_offset + first.chunk_length / 2);
+
+  auto source = open_sensor_source(dir.file("cut.mcap"));
+  EXPECT_TRUE(source->T_imu_lidar().has_value());
+  EXPECT_NE(source->describe().find("salvage"), std::string::npos);
+  SensorEvent e;
+  try {
+    source->next(e);
+    ADD_FAILURE() << "a truncated file must end in InputError";
+  } catch (const InputError& x) {
+    const std::string what = x.what();
+    EXPECT_NE(what.find("truncated"), std::string::npos) << what;
+    EXPECT_NE(what.find("recovered 0 messages"), std::string::npos) << what;
+    EXPECT_NE(what.find("Chunk record at offset " + std::to_string(first.chunk_start_offset)), std::string::npos) << what;
+  }
+  EXPECT_THROW(source->next(e), InputError);  // and keeps failing
 }
 
 // Bad samples inside a well-formed recording are dropped/repaired and counted by reason;
