@@ -33,11 +33,11 @@ std::vector<std::uint32_t> oracle_filter(const std::vector<Eigen::Vector3f>& poi
 
 TEST(VoxelFilter, KeepsThePointClosestToEachVoxelCentre) {
   std::mt19937 rng(90);
-  VoxelFilter filter(kVoxel);
+  VoxelFilter filter;
   for (int n : {0, 1, 100, 20000}) {
     const auto cloud = test::random_cloud(rng, n, 3.0f);  // ~ 1700 voxels: many points per voxel
     std::vector<std::uint32_t> kept;
-    filter.filter(cloud, kept);
+    filter.filter(cloud, static_cast<float>(kVoxel), kept);
     EXPECT_EQ(kept, oracle_filter(cloud, kVoxel)) << "n = " << n;
   }
 }
@@ -47,11 +47,12 @@ TEST(VoxelFilter, ReuseGivesTheSameResult) {
   std::mt19937 rng(91);
   const auto big = test::random_cloud(rng, 5000, 10.0f);
   const auto small = test::random_cloud(rng, 300, 2.0f);
-  VoxelFilter reused(kVoxel), fresh(kVoxel);
+  VoxelFilter reused, fresh;
+  const auto voxel = static_cast<float>(kVoxel);
   std::vector<std::uint32_t> a, b;
-  reused.filter(big, a);
-  reused.filter(small, a);
-  fresh.filter(small, b);
+  reused.filter(big, voxel, a);
+  reused.filter(small, voxel, a);
+  fresh.filter(small, voxel, b);
   EXPECT_EQ(a, b);
 }
 
