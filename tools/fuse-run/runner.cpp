@@ -12,8 +12,7 @@
 namespace fuse {
 
 void RunnerConfig::load(ConfigNode& root) {
-  auto est = root.child("estimator");
-  estimator.load(est);
+  load_section(root, "estimator", estimator);
   root.finish();
 }
 

@@ -61,37 +61,17 @@ void EstimatorConfig::load(ConfigNode& node) {
     T_imu_lidar.linear() = Eigen::Quaterniond(q(3), q(0), q(1), q(2)).normalized().toRotationMatrix();
     T_imu_lidar.translation() = t;
   }
-  auto c_init = node.child("init");
-  init.load(c_init);
-  auto c_imu = node.child("imu_noise");
-  imu.load(c_imu);
-  auto c_hist = node.child("history");
-  history.load(c_hist);
-  auto c_pre = node.child("preprocess");
-  preprocess.load(c_pre);
-  auto c_assoc = node.child("association");
-  association.load(c_assoc);
-  {
-    auto m = node.child("measurement");
-    m.get("point_sigma", measurement.point_sigma).get("reassociate_iterations", measurement.reassociate_iterations);
-    m.get("reassociate_translation", measurement.reassociate_translation);
-    m.get("reassociate_rotation", measurement.reassociate_rotation);
-    m.check(measurement.point_sigma > 0.0, "point_sigma", "must be positive");
-    m.check(measurement.reassociate_iterations >= 1, "reassociate_iterations", "must be >= 1");
-    m.check(measurement.reassociate_translation >= 0.0, "reassociate_translation", "must be >= 0");
-    m.check(measurement.reassociate_rotation >= 0.0, "reassociate_rotation", "must be >= 0");
-    m.finish();
-  }
-  auto c_update = node.child("update");
-  update.load(c_update);
-  auto c_index = node.child("spatial_index");
-  index.load(c_index);
-  auto c_map = node.child("map");
-  map.load(c_map);
-  auto c_cov = node.child("initial_covariance");
-  initial_covariance.load(c_cov);
-  auto c_div = node.child("divergence");
-  divergence.load(c_div);
+  load_section(node, "init", init);
+  load_section(node, "imu_noise", imu);
+  load_section(node, "history", history);
+  load_section(node, "preprocess", preprocess);
+  load_section(node, "association", association);
+  load_section(node, "measurement", measurement);
+  load_section(node, "update", update);
+  load_section(node, "spatial_index", index);
+  load_section(node, "map", map);
+  load_section(node, "initial_covariance", initial_covariance);
+  load_section(node, "divergence", divergence);
   node.finish();
 }
 

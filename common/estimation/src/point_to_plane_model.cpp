@@ -4,6 +4,16 @@
 
 namespace fuse {
 
+void PointToPlaneModel::Config::load(ConfigNode& node) {
+  node.get("point_sigma", point_sigma).get("reassociate_iterations", reassociate_iterations);
+  node.get("reassociate_translation", reassociate_translation).get("reassociate_rotation", reassociate_rotation);
+  node.check(point_sigma > 0.0, "point_sigma", "must be positive");
+  node.check(reassociate_iterations >= 1, "reassociate_iterations", "must be >= 1");
+  node.check(reassociate_translation >= 0.0, "reassociate_translation", "must be >= 0");
+  node.check(reassociate_rotation >= 0.0, "reassociate_rotation", "must be >= 0");
+  node.finish();
+}
+
 Eigen::Matrix<double, 1, kObsDim> point_to_plane_jacobian(const NavState& x, const Constraint& c) {
   const Eigen::Vector3d n = c.normal.cast<double>();
   const Eigen::Vector3d p_L = c.point.cast<double>();

@@ -7,8 +7,7 @@ namespace fuse {
 void UpdateConfig::load(ConfigNode& node) {
   node.get("backend", backend).get("max_iterations", max_iterations);
   node.get("convergence_translation", convergence_translation).get("convergence_rotation", convergence_rotation);
-  auto deg = node.child("degeneracy");
-  degeneracy.load(deg);
+  load_section(node, "degeneracy", degeneracy);
   node.check(backend == "ieskf", "backend", "unknown update backend '" + backend + "' (known: ieskf)");
   node.check(max_iterations >= 1 && max_iterations <= 50, "max_iterations", "must be in [1, 50]");
   node.check(convergence_translation > 0.0, "convergence_translation", "must be positive");

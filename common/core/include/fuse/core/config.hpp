@@ -48,6 +48,13 @@ class ConfigNode {
   std::set<std::string> used_;
 };
 
+/// Loads the sub-map `key` of parent into a config struct with a `load(ConfigNode&)` member.
+template <typename Section>
+void load_section(ConfigNode& parent, const std::string& key, Section& section) {
+  ConfigNode child = parent.child(key);
+  section.load(child);
+}
+
 template <typename T>
 ConfigNode& ConfigNode::get(const std::string& key, T& value) {
   used_.insert(key);

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "fuse/association/associator.hpp"
+#include "fuse/core/config.hpp"
 #include "fuse/estimation/measurement_model.hpp"
 
 namespace fuse {
@@ -26,6 +27,7 @@ class PointToPlaneModel final : public MeasurementModel {
     double reassociate_translation = 0.05;  ///< m: search again only if the pose moved more than this ...
     double reassociate_rotation = 0.005;    ///< rad: ... or turned more than this since the last search
     bool extrinsic_jacobian = false;  ///< fill the extrinsic columns (when the extrinsic is estimated)
+    void load(ConfigNode& node);
   };
   PointToPlaneModel(const Config& config, const std::vector<Eigen::Vector3f>& points_L, const SpatialIndex& map,
                     const Associator& associator, ConstraintSet& constraints)
