@@ -2,6 +2,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <cmath>
+#include <limits>
 
 namespace fuse {
 
@@ -56,14 +57,17 @@ void Associator::associate(const std::vector<Eigen::Vector3f>& points_L, const E
                            const SpatialIndex& map, ConstraintSet& out) const {
   out.clear();
   out.constraints.reserve(points_L.size());
+  out.nearest_dist2.resize(points_L.size());
   const Eigen::Matrix3f R = T_WL.linear().cast<float>();
   const Eigen::Vector3f t = T_WL.translation().cast<float>();
   const float max_dist = static_cast<float>(config_.max_neighbor_distance);
   const float thickness = static_cast<float>(config_.plane_thickness);
   Neighbors nb;
-  for (const Eigen::Vector3f& p_L : points_L) {
+  for (std::size_t i = 0; i < points_L.size(); ++i) {
+    const Eigen::Vector3f& p_L = points_L[i];
     const Eigen::Vector3f p_W = R * p_L + t;
     map.knn(p_W, config_.num_neighbors, max_dist, nb);
+    out.nearest_dist2[i] = nb.count > 0 ? nb.dist2[0] : std::numeric_limits<float>::infinity();
     if (nb.count < config_.num_neighbors) {
       ++out.rejected_no_neighbors;
       continue;

@@ -245,7 +245,10 @@ ScanReport Estimator::ingest(const LidarScan& scan) {
   const Eigen::Vector3f t = T_WL.translation().cast<float>();
   points_W_.resize(points_L_.size());
   for (std::size_t i = 0; i < points_L_.size(); ++i) points_W_[i] = R * points_L_[i] + t;
-  const MapUpdateStats map_stats = map_policy_->apply(points_W_, *map_);
+  // The association's nearest-neighbour distances are reused when it ran on this scan's points.
+  const bool have_nearest = report.updated && constraints_.nearest_dist2.size() == points_W_.size();
+  const MapUpdateStats map_stats =
+      map_policy_->apply(points_W_, *map_, have_nearest ? &constraints_.nearest_dist2 : nullptr);
   report.map_inserted = map_stats.inserted;
   report.map_points = map_->size();
   report.ms_map = ms_since(t_stage);

@@ -11,16 +11,23 @@ void MapPolicyConfig::load(ConfigNode& node) {
   node.finish();
 }
 
-MapUpdateStats MappingPolicy::apply(const std::vector<Eigen::Vector3f>& world_points, SpatialIndex& map) {
+MapUpdateStats MappingPolicy::apply(const std::vector<Eigen::Vector3f>& world_points, SpatialIndex& map,
+                                    const std::vector<float>* nearest_dist2) {
   MapUpdateStats stats;
   stats.offered = world_points.size();
   to_insert_.clear();
   const float min_dist = static_cast<float>(config_.min_point_distance);
+  const bool hinted = nearest_dist2 != nullptr && nearest_dist2->size() == world_points.size();
   Neighbors nb;
-  for (const Eigen::Vector3f& p : world_points) {
+  for (std::size_t i = 0; i < world_points.size(); ++i) {
+    const Eigen::Vector3f& p = world_points[i];
     if (min_dist > 0.f) {
-      map.knn(p, 1, min_dist, nb);
-      if (nb.count > 0) continue;
+      if (hinted) {
+        if ((*nearest_dist2)[i] <= min_dist * min_dist) continue;
+      } else {
+        map.knn(p, 1, min_dist, nb);
+        if (nb.count > 0) continue;
+      }
     }
     to_insert_.push_back(p);
   }

@@ -21,8 +21,12 @@ struct ConstraintSet {
   std::size_t rejected_no_neighbors = 0;  ///< too few map points near the point
   std::size_t rejected_not_planar = 0;    ///< neighbours do not form a plane
   std::size_t rejected_screening = 0;     ///< q < τ_q or |r| > τ_r
+  /// Per input point: squared distance to its nearest map point at the last association
+  /// (infinity when none within the search radius). The mapping policy reuses it.
+  std::vector<float> nearest_dist2;
   void clear() {
     constraints.clear();
+    nearest_dist2.clear();
     rejected_no_neighbors = rejected_not_planar = rejected_screening = 0;
   }
   std::size_t rejected() const { return rejected_no_neighbors + rejected_not_planar + rejected_screening; }

@@ -28,14 +28,18 @@ struct MapUpdateStats {
 class MapPolicy {
  public:
   virtual ~MapPolicy() = default;
-  virtual MapUpdateStats apply(const std::vector<Eigen::Vector3f>& world_points, SpatialIndex& map) = 0;
+  /// nearest_dist2 (optional, one per point): squared distance of each point to its nearest map
+  /// point, when the association has just measured it; saves searching the map again.
+  virtual MapUpdateStats apply(const std::vector<Eigen::Vector3f>& world_points, SpatialIndex& map,
+                               const std::vector<float>* nearest_dist2 = nullptr) = 0;
   virtual std::string name() const = 0;
 };
 
 class MappingPolicy final : public MapPolicy {
  public:
   explicit MappingPolicy(const MapPolicyConfig& config) : config_(config) {}
-  MapUpdateStats apply(const std::vector<Eigen::Vector3f>& world_points, SpatialIndex& map) override;
+  MapUpdateStats apply(const std::vector<Eigen::Vector3f>& world_points, SpatialIndex& map,
+                       const std::vector<float>* nearest_dist2 = nullptr) override;
   std::string name() const override { return "mapping"; }
 
  private:
@@ -45,7 +49,8 @@ class MappingPolicy final : public MapPolicy {
 
 class LocalizationPolicy final : public MapPolicy {
  public:
-  MapUpdateStats apply(const std::vector<Eigen::Vector3f>& world_points, SpatialIndex&) override {
+  MapUpdateStats apply(const std::vector<Eigen::Vector3f>& world_points, SpatialIndex&,
+                       const std::vector<float>* = nullptr) override {
     return {world_points.size(), 0};
   }
   std::string name() const override { return "localization"; }
