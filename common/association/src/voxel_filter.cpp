@@ -6,7 +6,7 @@
 namespace fuse {
 
 namespace {
-constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
+constexpr std::size_t kMinSlots = 1u << 12;
 /// Packs three voxel coordinates (21 bits each, offset to be non-negative) into one key.
 std::uint64_t pack(std::int64_t x, std::int64_t y, std::int64_t z) {
   constexpr std::int64_t kOffset = 1 << 20;
@@ -25,10 +25,10 @@ std::uint64_t mix(std::uint64_t k) {  // splitmix64 finaliser: spreads keys over
 
 void VoxelFilter::filter(const std::vector<Eigen::Vector3f>& points, float voxel_size, std::vector<std::uint32_t>& kept) {
   kept.clear();
-  std::size_t capacity = 16;
-  while (capacity < 2 * points.size()) capacity <<= 1;
-  table_.assign(capacity, Slot{kEmpty, 0, 0.f});
-  const std::uint64_t mask = capacity - 1;
+  // The table is sized for the number of voxels (not points) and grows when half full: a table
+  // that fits in cache matters more than avoiding the occasional rehash.
+  if (table_.empty() || ++generation_ == 0) reset_table(std::max<std::size_t>(table_.size(), kMinSlots));
+  used_.clear();
   const float inv = 1.0f / voxel_size;
   for (std::uint32_t i = 0; i < points.size(); ++i) {
     const Eigen::Vector3f v = points[i] * inv;
@@ -36,22 +36,44 @@ void VoxelFilter::filter(const std::vector<Eigen::Vector3f>& points, float voxel
     const float d2 = (v - cell - Eigen::Vector3f::Constant(0.5f)).squaredNorm();
     const std::uint64_t key = pack(static_cast<std::int64_t>(cell.x()), static_cast<std::int64_t>(cell.y()),
                                    static_cast<std::int64_t>(cell.z()));
-    for (std::uint64_t h = mix(key) & mask;; h = (h + 1) & mask) {
-      Slot& s = table_[h];
-      if (s.key == kEmpty) {
-        s = Slot{key, i, d2};
-        break;
-      }
-      if (s.key == key) {
-        if (d2 < s.dist2) s = Slot{key, i, d2};
-        break;
-      }
+    Slot& s = table_[find_slot(key)];
+    if (s.generation != generation_) {
+      s = Slot{key, i, d2, generation_};
+      used_.push_back(static_cast<std::uint32_t>(&s - table_.data()));
+      if (2 * used_.size() > table_.size()) grow();
+    } else if (d2 < s.dist2) {
+      s.index = i;
+      s.dist2 = d2;
     }
   }
-  for (const Slot& s : table_) {
-    if (s.key != kEmpty) kept.push_back(s.index);
-  }
+  kept.reserve(used_.size());
+  for (const std::uint32_t h : used_) kept.push_back(table_[h].index);
   std::sort(kept.begin(), kept.end());
+}
+
+std::size_t VoxelFilter::find_slot(std::uint64_t key) const {
+  const std::uint64_t mask = table_.size() - 1;
+  std::uint64_t h = mix(key) & mask;
+  while (table_[h].generation == generation_ && table_[h].key != key) h = (h + 1) & mask;
+  return h;
+}
+
+void VoxelFilter::reset_table(std::size_t capacity) {
+  table_.assign(capacity, Slot{0, 0, 0.f, 0});
+  generation_ = 1;
+}
+
+void VoxelFilter::grow() {
+  std::vector<Slot> live;
+  live.reserve(used_.size());
+  for (const std::uint32_t h : used_) live.push_back(table_[h]);
+  reset_table(table_.size() * 2);
+  used_.clear();
+  for (const Slot& s : live) {
+    const std::size_t h = find_slot(s.key);
+    table_[h] = Slot{s.key, s.index, s.dist2, generation_};
+    used_.push_back(static_cast<std::uint32_t>(h));
+  }
 }
 
 }  // namespace fuse

@@ -1,5 +1,6 @@
 // Voxel-grid downsampling: keeps, per cubic voxel, the point closest to the voxel centre.
-// An open-addressing hash table sized to the input avoids per-point heap allocation.
+// An open-addressing hash table (generation-stamped, reused between calls, sized to the number of
+// voxels) avoids per-point heap allocation and stays in cache.
 #pragma once
 
 #include <Eigen/Core>
@@ -18,8 +19,15 @@ class VoxelFilter {
     std::uint64_t key;
     std::uint32_t index;
     float dist2;
+    std::uint32_t generation;  ///< slot is in use only when equal to generation_ (no clearing)
   };
+  std::size_t find_slot(std::uint64_t key) const;
+  void reset_table(std::size_t capacity);
+  void grow();
+
   std::vector<Slot> table_;  ///< reused between calls
+  std::vector<std::uint32_t> used_;  ///< slots filled by the current call
+  std::uint32_t generation_ = 0;
 };
 
 }  // namespace fuse
