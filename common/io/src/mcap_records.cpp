@@ -3,7 +3,7 @@
 namespace fuse::io::mcap {
 namespace {
 
-// Writes <opcode><uint64 length placeholder>; end_record() patches the length afterwards.
+// Writes <opcode><uint64 length, written as 0>; end_record() patches the length afterwards.
 std::size_t begin_record(ByteWriter& w, Op op) {
   w.u8(static_cast<std::uint8_t>(op));
   const std::size_t length_pos = w.size();
