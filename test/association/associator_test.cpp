@@ -35,6 +35,25 @@ TEST(FitPlane, RecoversNormalAndOffsetFromNoisyPoints) {
   EXPECT_NEAR(sign * d, kD, 0.01f);
 }
 
+// A "ramp" fitted through two parallel surfaces 8 cm apart (a step) reports an RMS of about half
+// the offset, while points on one surface report ~0: the model down-weights such fits by it.
+TEST(FitPlane, ReportsTheRmsDistanceToThePlane) {
+  std::vector<Eigen::Vector3f> flat, step;
+  for (int i = 0; i < 8; ++i) {
+    const float x = 0.1f * static_cast<float>(i);
+    flat.emplace_back(x, 0.05f * static_cast<float>(i % 3), 1.0f);
+    step.emplace_back(x, 0.05f * static_cast<float>(i % 3), i < 4 ? 1.0f : 1.08f);
+  }
+  Eigen::Vector3f normal;
+  float d = 0.f, rms = -1.f;
+  ASSERT_TRUE(fit_plane(flat.data(), 8, 0.1f, normal, d, &rms));
+  EXPECT_NEAR(rms, 0.0f, 1e-4f);
+  ASSERT_TRUE(fit_plane(step.data(), 8, 0.1f, normal, d, &rms));
+  // The best plane tilts through both levels: RMS between 0 and half the step.
+  EXPECT_GT(rms, 0.005f);
+  EXPECT_LT(rms, 0.04f + 1e-4f);
+}
+
 TEST(FitPlane, RefusesNonPlanarAndTooFewPoints) {
   std::mt19937 rng(101);
   const auto blob = test::random_cloud(rng, 10, 0.5f);

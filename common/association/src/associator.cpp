@@ -18,7 +18,8 @@ void AssociationConfig::load(ConfigNode& node) {
   node.finish();
 }
 
-bool fit_plane(const Eigen::Vector3f* points, int count, float thickness, Eigen::Vector3f& normal, float& d) {
+bool fit_plane(const Eigen::Vector3f* points, int count, float thickness, Eigen::Vector3f& normal, float& d,
+               float* rms) {
   if (count < 3) return false;
   Eigen::Vector3f mean = Eigen::Vector3f::Zero();
   for (int i = 0; i < count; ++i) mean += points[i];
@@ -33,6 +34,8 @@ bool fit_plane(const Eigen::Vector3f* points, int count, float thickness, Eigen:
   es.computeDirect(cov);
   normal = es.eigenvectors().col(0);
   d = -normal.dot(mean);
+  // The smallest eigenvalue of the scatter matrix is the sum of squared distances to the plane.
+  if (rms != nullptr) *rms = std::sqrt(std::max(es.eigenvalues()(0), 0.0f) / static_cast<float>(count));
   for (int i = 0; i < count; ++i) {
     if (std::abs(normal.dot(points[i]) + d) > thickness) return false;
   }
@@ -73,7 +76,7 @@ void Associator::associate(const std::vector<Eigen::Vector3f>& points_L, const E
       continue;
     }
     Constraint c;
-    if (!fit_plane(nb.points, nb.count, thickness, c.normal, c.d)) {
+    if (!fit_plane(nb.points, nb.count, thickness, c.normal, c.d, &c.plane_rms)) {
       ++out.rejected_not_planar;
       continue;
     }

@@ -6,6 +6,7 @@ namespace fuse {
 
 void PointToPlaneModel::Config::load(ConfigNode& node) {
   node.get("point_sigma", point_sigma).get("reassociate_iterations", reassociate_iterations);
+  node.get("weight_by_plane_fit", weight_by_plane_fit);
   node.get("reassociate_translation", reassociate_translation).get("reassociate_rotation", reassociate_rotation);
   node.check(point_sigma > 0.0, "point_sigma", "must be positive");
   node.check(reassociate_iterations >= 1, "reassociate_iterations", "must be >= 1");
@@ -49,13 +50,15 @@ bool PointToPlaneModel::linearize(const NavState& x, int iteration, LinearSystem
     associator_.rescreen(T_WL, constraints_);
   }
   association_ms_ += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  const double w = 1.0 / (config_.point_sigma * config_.point_sigma);
+  const double sigma2 = config_.point_sigma * config_.point_sigma;
   // Accumulate only the pose block unless the extrinsic is estimated (6×6 instead of 12×12).
   Eigen::Matrix<double, 6, 6> info6 = Eigen::Matrix<double, 6, 6>::Zero();
   Eigen::Matrix<double, 6, 1> grad6 = Eigen::Matrix<double, 6, 1>::Zero();
   double lever2 = 0.0;
   out = LinearSystem{};
   for (const Constraint& c : constraints_.constraints) {
+    const double rms2 = config_.weight_by_plane_fit ? static_cast<double>(c.plane_rms) * c.plane_rms : 0.0;
+    const double w = 1.0 / (sigma2 + rms2);
     const Eigen::Vector3d n = c.normal.cast<double>();
     const Eigen::Vector3d q = x.R_IL * c.point.cast<double>() + x.p_IL;
     const double r = n.dot(x.R * q + x.p) + static_cast<double>(c.d);

@@ -23,7 +23,9 @@ struct AssociationConfig {
 
 /// Fits nᵀq + d = 0 (|n| = 1) to points by least squares on [q 1]·[n; d] with the smallest
 /// eigenvector of their covariance. Returns false when not planar within `thickness`.
-bool fit_plane(const Eigen::Vector3f* points, int count, float thickness, Eigen::Vector3f& normal, float& d);
+/// `rms` (optional) receives the RMS distance of the points to the fitted plane.
+bool fit_plane(const Eigen::Vector3f* points, int count, float thickness, Eigen::Vector3f& normal, float& d,
+               float* rms = nullptr);
 
 class Associator {
  public:

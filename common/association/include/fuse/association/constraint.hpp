@@ -14,6 +14,7 @@ struct Constraint {
   float d = 0.f;           ///< plane offset
   float quality = 0.f;     ///< q ∈ [0,1], higher is better (screening keeps q ≥ τ_q)
   float residual = 0.f;    ///< r at the state it was associated with
+  float plane_rms = 0.f;   ///< RMS distance of the map neighbours to the fitted plane (m)
 };
 
 struct ConstraintSet {

@@ -23,6 +23,9 @@ class PointToPlaneModel final : public MeasurementModel {
  public:
   struct Config {
     double point_sigma = 0.05;        ///< m, standard deviation of a point-to-plane residual
+    /// Adds the plane fit's RMS to the residual variance: w = 1 / (σ² + rms²), so planes fitted
+    /// across edges or steps (a "ramp" through two surfaces) count for less.
+    bool weight_by_plane_fit = true;
     int reassociate_iterations = 3;   ///< iterations that may search the map again (then only re-screen)
     double reassociate_translation = 0.05;  ///< m: search again only if the pose moved more than this ...
     double reassociate_rotation = 0.005;    ///< rad: ... or turned more than this since the last search
