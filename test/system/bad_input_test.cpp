@@ -149,29 +149,29 @@ int run_cli(const std::string& args, std::string& output) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
+/// Runs the fuse-run binary on the test's sequence directory with extra arguments.
+int run_on(const fs::path& dir, const std::string& extra, std::string& output) {
+  return run_cli("--config " + kConfig + " --input " + dir.string() + " --out " + (dir / "o").string() + " " + extra,
+                 output);
+}
+
 TEST_F(BadInputTest, UnknownConfigKeyIsRefusedNamingTheKey) {
   std::string out;
-  const int code = run_cli("--config " + kConfig + " --input " + dir_.string() + " --out " + (dir_ / "o").string() +
-                               " --set estimator.update.max_iteratons=3",
-                           out);
+  const int code = run_on(dir_, "--set estimator.update.max_iteratons=3", out);
   EXPECT_EQ(code, 2) << out;
   EXPECT_NE(out.find("estimator.update.max_iteratons"), std::string::npos) << out;
 }
 
 TEST_F(BadInputTest, BadConfigValueIsRefusedNamingTheKey) {
   std::string out;
-  const int code = run_cli("--config " + kConfig + " --input " + dir_.string() + " --out " + (dir_ / "o").string() +
-                               " --set estimator.preprocess.voxel_size=-1",
-                           out);
+  const int code = run_on(dir_, "--set estimator.preprocess.voxel_size=-1", out);
   EXPECT_EQ(code, 2) << out;
   EXPECT_NE(out.find("estimator.preprocess.voxel_size"), std::string::npos) << out;
 }
 
 TEST_F(BadInputTest, DivergenceIsReportedAsAnError) {
   std::string out;
-  const int code = run_cli("--config " + kConfig + " --input " + dir_.string() + " --out " + (dir_ / "o").string() +
-                               " --set estimator.divergence.max_position_std=1e-6 --log-level off",
-                           out);
+  const int code = run_on(dir_, "--set estimator.divergence.max_position_std=1e-6 --log-level off", out);
   EXPECT_EQ(code, 3) << out;
   EXPECT_NE(out.find("diverged"), std::string::npos) << out;
 }
