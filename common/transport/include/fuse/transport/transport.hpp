@@ -1,0 +1,82 @@
+// Transport (DESIGN §3): a vendor-neutral participant that moves serialised samples (XCDR1 CDR
+// with the 4-byte encapsulation header) over DDS topics. Fast DDS is the default backend;
+// Cyclone DDS is chosen by config. Nothing above this layer sees a DDS type: the typed
+// Publisher/Subscriber (typed.hpp) and the request/reply template (rpc.hpp) are built on it.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "fuse/core/config.hpp"
+
+namespace fuse::transport {
+
+struct TransportConfig {
+  std::string vendor = "fastdds";  ///< fastdds | cyclonedds
+  int domain_id = 0;               ///< 0..101 (higher ids collide with ephemeral ports)
+  /// Discovery by unicast on 127.0.0.1 only (loopback has no multicast): Fast DDS initial peers
+  /// with maxInitialPeersRange = max_participants; Cyclone with multicast off on `lo` and
+  /// MaxAutoParticipantIndex = max_participants.
+  bool loopback_only = true;
+  int max_participants = 32;
+  std::size_t socket_buffer_bytes = 4u << 20;  ///< send/receive buffers (~1 MiB clouds need 4 MiB)
+  bool shared_memory = false;  ///< Fast DDS shared-memory transport / data-sharing (off: UDP only)
+  void load(ConfigNode& node);
+};
+
+enum class Reliability { kBestEffort, kReliable };
+enum class Durability { kVolatile, kTransientLocal };
+
+struct TopicQos {
+  Reliability reliability = Reliability::kReliable;
+  Durability durability = Durability::kVolatile;
+  int depth = 10;  ///< KEEP_LAST depth (per instance for keyed topics)
+};
+
+/// What a backend needs to know about a type to register it: its IDL name (e.g.
+/// "fuse_msgs::ImuSample"), whether it is keyed (the key is then the first member, a uint64),
+/// and its largest serialised size.
+struct TypeSupport {
+  std::string name;
+  bool keyed = false;
+  std::size_t max_serialized_size = 0;
+};
+
+using Bytes = std::vector<std::uint8_t>;
+/// Called on a backend thread with one serialised sample (encapsulation header included).
+using RawHandler = std::function<void(const std::uint8_t* data, std::size_t size)>;
+
+class RawWriter {
+ public:
+  virtual ~RawWriter() = default;
+  /// Publishes one serialised sample; false when the backend refused it (logged by the backend).
+  virtual bool write(const Bytes& sample) = 0;
+  virtual std::size_t matched_readers() const = 0;
+};
+
+class RawReader {
+ public:
+  virtual ~RawReader() = default;
+  virtual std::size_t matched_writers() const = 0;
+};
+
+class Participant {
+ public:
+  virtual ~Participant() = default;
+  virtual std::unique_ptr<RawWriter> create_writer(const std::string& topic, const TypeSupport& type,
+                                                   const TopicQos& qos) = 0;
+  /// `handler` is called for every received sample until the reader is destroyed.
+  virtual std::unique_ptr<RawReader> create_reader(const std::string& topic, const TypeSupport& type,
+                                                   const TopicQos& qos, RawHandler handler) = 0;
+  virtual std::string vendor() const = 0;
+};
+
+/// Creates a participant of the configured vendor; throws std::runtime_error naming what failed.
+/// `name` identifies the process in discovery (e.g. "fuse-state").
+std::unique_ptr<Participant> make_participant(const TransportConfig& config, const std::string& name);
+
+}  // namespace fuse::transport

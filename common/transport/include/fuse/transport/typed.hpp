@@ -1,0 +1,114 @@
+// Typed publish/subscribe over a Participant: the generated fuse_msgs types are serialised
+// once, by Fast CDR, as XCDR1 with the encapsulation header; both vendors carry the same bytes.
+#pragma once
+
+#include <atomic>
+#include <fastcdr/Cdr.h>
+#include <fastcdr/FastBuffer.h>
+#include <fastcdr/exceptions/Exception.h>
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <utility>
+
+#include "fuse/transport/qos.hpp"
+#include "fuse/transport/transport.hpp"
+
+namespace fuse::transport {
+
+/// IDL name of a generated type; specialised for every fuse_msgs type in msg_traits.hpp.
+template <class T>
+struct MsgName;
+
+template <class T>
+TypeSupport type_support() {
+  return TypeSupport{MsgName<T>::value, T::isKeyDefined(), T::getMaxCdrSerializedSize() + 4};
+}
+
+template <class T>
+Bytes serialize(const T& msg) {
+  Bytes out(T::getCdrSerializedSize(msg) + 4);
+  eprosima::fastcdr::FastBuffer buffer(reinterpret_cast<char*>(out.data()), out.size());
+  eprosima::fastcdr::Cdr cdr(buffer, eprosima::fastcdr::Cdr::DEFAULT_ENDIAN, eprosima::fastcdr::Cdr::DDS_CDR);
+  cdr.serialize_encapsulation();
+  msg.serialize(cdr);
+  out.resize(cdr.getSerializedDataLength());
+  return out;
+}
+
+/// Decodes one sample; false (with the reason in *error) on a malformed or oversized sample.
+template <class T>
+bool deserialize(const std::uint8_t* data, std::size_t size, T& msg, std::string* error = nullptr) {
+  if (size < 4 || size > T::getMaxCdrSerializedSize() + 4) {
+    if (error) *error = "sample of " + std::to_string(size) + " bytes is outside the type's size range";
+    return false;
+  }
+  try {
+    eprosima::fastcdr::FastBuffer buffer(reinterpret_cast<char*>(const_cast<std::uint8_t*>(data)), size);
+    eprosima::fastcdr::Cdr cdr(buffer, eprosima::fastcdr::Cdr::DEFAULT_ENDIAN, eprosima::fastcdr::Cdr::DDS_CDR);
+    cdr.read_encapsulation();
+    msg.deserialize(cdr);
+  } catch (const eprosima::fastcdr::exception::Exception& e) {
+    if (error) *error = std::string("CDR decoding failed: ") + e.what();
+    return false;
+  } catch (const std::exception& e) {  // e.g. std::bad_alloc on an absurd sequence length
+    if (error) *error = std::string("CDR decoding failed: ") + e.what();
+    return false;
+  }
+  return true;
+}
+
+template <class T>
+class Publisher {
+ public:
+  Publisher(Participant& participant, const std::string& topic)
+      : writer_(participant.create_writer(topic, type_support<T>(), topic_qos(topic))) {}
+  bool publish(const T& msg) { return writer_->write(serialize(msg)); }
+  std::size_t matched() const { return writer_->matched_readers(); }
+
+ private:
+  std::unique_ptr<RawWriter> writer_;
+};
+
+/// Calls `on_sample` (on a backend thread) for every well-formed sample; malformed samples are
+/// counted and passed to `on_malformed` with the reason.
+template <class T>
+class Subscriber {
+ public:
+  using Handler = std::function<void(const T&)>;
+  using ErrorHandler = std::function<void(const std::string&)>;
+
+  Subscriber(Participant& participant, const std::string& topic, Handler on_sample, ErrorHandler on_malformed = {})
+      : on_sample_(std::move(on_sample)), on_malformed_(std::move(on_malformed)) {
+    reader_ = participant.create_reader(topic, type_support<T>(), topic_qos(topic),
+                                        [this](const std::uint8_t* data, std::size_t size) { receive(data, size); });
+  }
+  ~Subscriber() { reader_.reset(); }  // stop callbacks before the handlers go away
+  Subscriber(const Subscriber&) = delete;
+  Subscriber& operator=(const Subscriber&) = delete;
+
+  std::uint64_t received() const { return received_; }
+  std::uint64_t malformed() const { return malformed_; }
+  std::size_t matched() const { return reader_->matched_writers(); }
+
+ private:
+  void receive(const std::uint8_t* data, std::size_t size) {
+    T msg;
+    std::string error;
+    if (!deserialize(data, size, msg, &error)) {
+      ++malformed_;
+      if (on_malformed_) on_malformed_(error);
+      return;
+    }
+    ++received_;
+    on_sample_(msg);
+  }
+
+  Handler on_sample_;
+  ErrorHandler on_malformed_;
+  std::atomic<std::uint64_t> received_{0}, malformed_{0};
+  std::unique_ptr<RawReader> reader_;
+};
+
+}  // namespace fuse::transport
