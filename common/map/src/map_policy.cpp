@@ -12,7 +12,8 @@ void MapPolicyConfig::load(ConfigNode& node) {
 }
 
 MapUpdateStats MappingPolicy::apply(const std::vector<Eigen::Vector3f>& world_points, SpatialIndex& map,
-                                    const std::vector<float>* nearest_dist2) {
+                                    const std::vector<float>* nearest_dist2,
+                                    std::vector<Eigen::Vector3f>* inserted) {
   MapUpdateStats stats;
   stats.offered = world_points.size();
   to_insert_.clear();
@@ -33,6 +34,7 @@ MapUpdateStats MappingPolicy::apply(const std::vector<Eigen::Vector3f>& world_po
   }
   map.insert(to_insert_);
   stats.inserted = to_insert_.size();
+  if (inserted != nullptr) *inserted = to_insert_;
   return stats;
 }
 

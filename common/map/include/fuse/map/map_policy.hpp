@@ -30,8 +30,10 @@ class MapPolicy {
   virtual ~MapPolicy() = default;
   /// nearest_dist2 (optional, one per point): squared distance of each point to its nearest map
   /// point, when the association has just measured it; saves searching the map again.
+  /// inserted (optional): receives the points the policy inserted into the map (cleared first).
   virtual MapUpdateStats apply(const std::vector<Eigen::Vector3f>& world_points, SpatialIndex& map,
-                               const std::vector<float>* nearest_dist2 = nullptr) = 0;
+                               const std::vector<float>* nearest_dist2 = nullptr,
+                               std::vector<Eigen::Vector3f>* inserted = nullptr) = 0;
   virtual std::string name() const = 0;
 };
 
@@ -39,7 +41,8 @@ class MappingPolicy final : public MapPolicy {
  public:
   explicit MappingPolicy(const MapPolicyConfig& config) : config_(config) {}
   MapUpdateStats apply(const std::vector<Eigen::Vector3f>& world_points, SpatialIndex& map,
-                       const std::vector<float>* nearest_dist2 = nullptr) override;
+                       const std::vector<float>* nearest_dist2 = nullptr,
+                       std::vector<Eigen::Vector3f>* inserted = nullptr) override;
   std::string name() const override { return "mapping"; }
 
  private:
@@ -50,7 +53,9 @@ class MappingPolicy final : public MapPolicy {
 class LocalizationPolicy final : public MapPolicy {
  public:
   MapUpdateStats apply(const std::vector<Eigen::Vector3f>& world_points, SpatialIndex&,
-                       const std::vector<float>* = nullptr) override {
+                       const std::vector<float>* = nullptr,
+                       std::vector<Eigen::Vector3f>* inserted = nullptr) override {
+    if (inserted != nullptr) inserted->clear();
     return {world_points.size(), 0};
   }
   std::string name() const override { return "localization"; }
