@@ -1,0 +1,371 @@
+// Snapshot and journal files (map_storage.hpp): round trips, journal replay, the crash between
+// snapshot rename and journal reset, and damage (bad CRC, truncation, bad header) being found,
+// reported with file and byte offset, and the good part kept.
+#include "fuse/map/map_storage.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+
+#include "test_files.hpp"
+
+namespace fuse {
+namespace {
+
+using test::TempDir;
+
+MapObservation observation(std::uint64_t session, std::uint64_t sequence, int n = 50) {
+  MapObservation o;
+  o.session = session;
+  o.sequence = sequence;
+  o.t = 100.0 + 0.1 * static_cast<double>(sequence);
+  for (int i = 0; i < n; ++i) {
+    const float s = static_cast<float>(sequence);
+    o.points.emplace_back(-30.f + 1.3f * static_cast<float>(i) + s, 0.5f * s - 7.f, 0.01f * static_cast<float>(i) - 2.f);
+  }
+  return o;
+}
+
+/// A map spread over chunks with negative and positive coordinates.
+PointMap sample_map(double chunk_size = 10.0) {
+  PointMap map(chunk_size);
+  std::vector<Eigen::Vector3f> points;
+  for (int i = 0; i < 300; ++i) {
+    const float f = static_cast<float>(i);
+    points.emplace_back(-45.f + 0.31f * f, 20.f - 0.17f * f, std::sin(f) * 3.f);
+  }
+  map.insert(points);
+  map.insert({{-1, -1, -1}, {55, 55, 55}});
+  return map;
+}
+
+void expect_same_map(const PointMap& a, const PointMap& b) {
+  EXPECT_EQ(a.chunk_size(), b.chunk_size());
+  ASSERT_EQ(a.num_chunks(), b.num_chunks());
+  ASSERT_EQ(a.num_points(), b.num_points());
+  a.for_each_chunk([&](const PointChunk& ca) {
+    const PointChunk* cb = b.chunk(ca.key);
+    ASSERT_NE(cb, nullptr) << "chunk " << ca.coord.transpose();
+    EXPECT_EQ(ca.coord, cb->coord);
+    EXPECT_EQ(ca.revision, cb->revision);
+    EXPECT_EQ(ca.points, cb->points);
+  });
+}
+
+struct Loaded {
+  PointMap map;
+  MapMeta meta;
+  LoadReport report;
+  std::vector<MapObservation> replayed;
+};
+
+Loaded load(MapStorage& storage) {
+  Loaded out;
+  out.report = storage.load(out.map, out.meta, [&](const MapObservation& o) { out.replayed.push_back(o); });
+  return out;
+}
+
+TEST(MapStorage, SnapshotFileRoundTrip) {
+  TempDir dir;
+  const PointMap map = sample_map();
+  MapMeta meta;
+  meta.min_point_distance = 0.2;
+  meta.mode = "localization";
+  meta.epoch = 3;
+  meta.observations = 42;
+  meta.applied = {{7, 12}, {0xFFFFFFFFFFFFull, 1}};
+  const auto file = dir / "copy.snapshot";
+  MapStorage::write_snapshot_file(file, map, meta);
+  EXPECT_FALSE(std::filesystem::exists(dir / "copy.snapshot.tmp"));
+
+  PointMap back(1.0);
+  MapMeta meta_back;
+  const LoadReport report = MapStorage::read_snapshot_file(file, back, meta_back);
+  EXPECT_TRUE(report.clean()) << report.summary();
+  EXPECT_TRUE(report.snapshot_ok);
+  EXPECT_EQ(report.chunks_loaded, map.num_chunks());
+  expect_same_map(map, back);
+  EXPECT_EQ(meta_back.frame_id, "world");
+  EXPECT_EQ(meta_back.min_point_distance, 0.2);
+  EXPECT_EQ(meta_back.mode, "localization");
+  EXPECT_EQ(meta_back.epoch, 3u);
+  EXPECT_EQ(meta_back.observations, 42u);
+  EXPECT_EQ(meta_back.applied, meta.applied);
+}
+
+TEST(MapStorage, JournalReplaysAppendedObservationsInOrder) {
+  TempDir dir;
+  {
+    MapStorage storage(dir.path());
+    Loaded fresh = load(storage);
+    EXPECT_TRUE(fresh.report.clean());
+    EXPECT_FALSE(fresh.report.snapshot_found);
+    EXPECT_FALSE(fresh.report.journal_found);
+    for (std::uint64_t s = 1; s <= 4; ++s) storage.append(observation(9, s));
+    storage.append(observation(5, 1, 0));  // an empty observation is a record too
+    EXPECT_EQ(storage.journal_records(), 5u);
+  }
+  MapStorage storage(dir.path());
+  const Loaded back = load(storage);
+  EXPECT_TRUE(back.report.clean()) << back.report.summary();
+  ASSERT_EQ(back.replayed.size(), 5u);
+  for (std::uint64_t s = 1; s <= 4; ++s) {
+    const MapObservation expected = observation(9, s);
+    EXPECT_EQ(back.replayed[s - 1].session, 9u);
+    EXPECT_EQ(back.replayed[s - 1].sequence, s);
+    EXPECT_EQ(back.replayed[s - 1].t, expected.t);
+    EXPECT_EQ(back.replayed[s - 1].points, expected.points);
+  }
+  EXPECT_TRUE(back.replayed[4].points.empty());
+  EXPECT_EQ(back.meta.applied.at(9), 4u);
+  EXPECT_EQ(back.meta.applied.at(5), 1u);
+  EXPECT_EQ(back.meta.observations, 5u);
+  EXPECT_EQ(storage.journal_records(), 5u);
+}
+
+TEST(MapStorage, SnapshotRestartsTheJournal) {
+  TempDir dir;
+  const PointMap map = sample_map();
+  {
+    MapStorage storage(dir.path());
+    load(storage);
+    storage.append(observation(1, 1));
+    MapMeta meta;
+    meta.applied[1] = 1;
+    meta.observations = 1;
+    storage.snapshot(map, meta);
+    EXPECT_EQ(storage.journal_records(), 0u);
+    storage.append(observation(1, 2));
+  }
+  MapStorage storage(dir.path());
+  const Loaded back = load(storage);
+  EXPECT_TRUE(back.report.clean()) << back.report.summary();
+  expect_same_map(map, back.map);
+  ASSERT_EQ(back.replayed.size(), 1u);
+  EXPECT_EQ(back.replayed[0].sequence, 2u);
+  EXPECT_EQ(back.meta.applied.at(1), 2u);
+  EXPECT_EQ(back.meta.observations, 2u);
+}
+
+TEST(MapStorage, CrashBetweenSnapshotRenameAndJournalResetAppliesNothingTwice) {
+  TempDir dir;
+  {
+    MapStorage storage(dir.path());
+    load(storage);
+    for (std::uint64_t s = 1; s <= 5; ++s) storage.append(observation(3, s));
+    storage.append(observation(4, 1));
+  }
+  // The snapshot covers session 3 up to 3 and session 4 fully; the journal was not reset.
+  MapMeta meta;
+  meta.applied = {{3, 3}, {4, 1}};
+  MapStorage::write_snapshot_file(dir / MapStorage::kSnapshotName, sample_map(), meta);
+
+  MapStorage storage(dir.path());
+  const Loaded back = load(storage);
+  EXPECT_TRUE(back.report.clean()) << back.report.summary();
+  EXPECT_EQ(back.report.journal_records, 6u);
+  EXPECT_EQ(back.report.journal_skipped, 4u);
+  ASSERT_EQ(back.replayed.size(), 2u);
+  EXPECT_EQ(back.replayed[0].sequence, 4u);
+  EXPECT_EQ(back.replayed[1].sequence, 5u);
+  EXPECT_EQ(back.meta.applied.at(3), 5u);
+}
+
+TEST(MapStorage, CorruptedJournalRecordCutsTheTailAndAppendsContinue) {
+  TempDir dir;
+  {
+    MapStorage storage(dir.path());
+    load(storage);
+    for (std::uint64_t s = 1; s <= 6; ++s) storage.append(observation(2, s));
+  }
+  const auto journal = dir / MapStorage::kJournalName;
+  const auto offsets = test::record_offsets(journal);
+  ASSERT_EQ(offsets.size(), 6u);
+  test::flip_byte(journal, offsets[3] + 20);  // inside the 4th record's bytes
+  {
+    MapStorage storage(dir.path());
+    const Loaded back = load(storage);
+    EXPECT_FALSE(back.report.clean());
+    EXPECT_EQ(back.replayed.size(), 3u);
+    EXPECT_EQ(back.report.journal_records, 3u);
+    EXPECT_EQ(back.report.journal_bytes_cut, std::filesystem::file_size(dir / "map.journal.cut.1"));
+    EXPECT_TRUE(test::mentions(back.report.problems, "map.journal: byte " + std::to_string(offsets[3])))
+        << back.report.problems.at(0);
+    EXPECT_TRUE(test::mentions(back.report.problems, "CRC"));
+    EXPECT_EQ(std::filesystem::file_size(journal), offsets[3]);
+    EXPECT_EQ(back.meta.applied.at(2), 3u);
+    storage.append(observation(2, 4));
+  }
+  MapStorage storage(dir.path());
+  const Loaded again = load(storage);
+  EXPECT_TRUE(again.report.clean()) << again.report.summary();
+  ASSERT_EQ(again.replayed.size(), 4u);
+  EXPECT_EQ(again.replayed[3].points, observation(2, 4).points);
+}
+
+TEST(MapStorage, TruncatedJournalTailIsCutAndReported) {
+  TempDir dir;
+  {
+    MapStorage storage(dir.path());
+    load(storage);
+    for (std::uint64_t s = 1; s <= 3; ++s) storage.append(observation(2, s));
+  }
+  const auto journal = dir / MapStorage::kJournalName;
+  const auto offsets = test::record_offsets(journal);
+  test::truncate_to(journal, std::filesystem::file_size(journal) - 7);  // a torn last write
+  {
+    MapStorage storage(dir.path());
+    const Loaded back = load(storage);
+    EXPECT_EQ(back.replayed.size(), 2u);
+    EXPECT_TRUE(test::mentions(back.report.problems, "byte " + std::to_string(offsets[2])));
+    EXPECT_TRUE(test::mentions(back.report.problems, "truncated"));
+    EXPECT_EQ(std::filesystem::file_size(journal), offsets[2]);
+    storage.append(observation(2, 3));
+  }
+  MapStorage storage(dir.path());
+  const Loaded again = load(storage);
+  EXPECT_TRUE(again.report.clean()) << again.report.summary();
+  EXPECT_EQ(again.replayed.size(), 3u);
+}
+
+TEST(MapStorage, CorruptedChunkRecordLosesOnlyThatChunk) {
+  TempDir dir;
+  const PointMap map = sample_map();
+  ASSERT_GE(map.num_chunks(), 4u);
+  const auto file = dir / "map.snapshot";
+  MapStorage::write_snapshot_file(file, map, MapMeta{});
+  const auto offsets = test::record_offsets(file);
+  ASSERT_EQ(offsets.size(), map.num_chunks() + 1);  // header + chunks
+  test::flip_byte(file, offsets[2] + 12);           // the second chunk's bytes
+
+  PointMap back(1.0);
+  MapMeta meta;
+  const LoadReport report = MapStorage::read_snapshot_file(file, back, meta);
+  EXPECT_TRUE(report.snapshot_ok);
+  EXPECT_EQ(report.chunks_dropped, 1u);
+  EXPECT_EQ(report.chunks_loaded, map.num_chunks() - 1);
+  ASSERT_EQ(report.problems.size(), 1u);
+  EXPECT_TRUE(test::mentions(report.problems, "byte " + std::to_string(offsets[2]))) << report.problems[0];
+  // Every other chunk is intact.
+  std::size_t lost = 0;
+  map.for_each_chunk([&](const PointChunk& c) {
+    const PointChunk* b = back.chunk(c.key);
+    if (b == nullptr) {
+      ++lost;
+      return;
+    }
+    EXPECT_EQ(b->points, c.points);
+  });
+  EXPECT_EQ(lost, 1u);
+}
+
+TEST(MapStorage, TruncatedSnapshotKeepsTheChunksBeforeTheCut) {
+  TempDir dir;
+  const PointMap map = sample_map();
+  const auto file = dir / "map.snapshot";
+  MapStorage::write_snapshot_file(file, map, MapMeta{});
+  const auto offsets = test::record_offsets(file);
+  const std::size_t chunks = map.num_chunks();
+
+  // Cut inside the last chunk record.
+  test::truncate_to(file, offsets.back() + 10);
+  PointMap back(1.0);
+  MapMeta meta;
+  LoadReport report = MapStorage::read_snapshot_file(file, back, meta);
+  EXPECT_TRUE(report.snapshot_ok);
+  EXPECT_EQ(report.chunks_loaded, chunks - 1);
+  EXPECT_EQ(report.chunks_dropped, 1u);
+  EXPECT_TRUE(test::mentions(report.problems, "truncated"));
+
+  // Cut exactly between records: the header's chunk count tells.
+  test::truncate_to(file, offsets[offsets.size() - 2]);
+  report = MapStorage::read_snapshot_file(file, back, meta);
+  EXPECT_TRUE(report.snapshot_ok);
+  EXPECT_EQ(report.chunks_loaded, chunks - 2);
+  EXPECT_EQ(report.chunks_dropped, 2u);
+  EXPECT_TRUE(test::mentions(report.problems, "of " + std::to_string(chunks) + " chunk records"));
+}
+
+TEST(MapStorage, BadSnapshotHeaderStartsFromTheJournalOnly) {
+  TempDir dir;
+  {
+    MapStorage storage(dir.path());
+    load(storage);
+    storage.append(observation(1, 1));
+    MapMeta meta;
+    meta.applied[1] = 1;
+    storage.snapshot(sample_map(), meta);
+    storage.append(observation(1, 2));
+  }
+  const auto snapshot = dir / MapStorage::kSnapshotName;
+  test::flip_byte(snapshot, 12 + 8 + 3);  // inside the header record
+  {
+    MapStorage storage(dir.path());
+    const Loaded back = load(storage);
+    EXPECT_TRUE(back.report.snapshot_found);
+    EXPECT_FALSE(back.report.snapshot_ok);
+    EXPECT_EQ(back.map.num_points(), 0u);
+    ASSERT_EQ(back.replayed.size(), 1u);
+    EXPECT_EQ(back.replayed[0].sequence, 2u);
+    EXPECT_TRUE(test::mentions(back.report.problems, "byte 12"));
+    EXPECT_TRUE(test::mentions(back.report.problems, "starting from the journal only"));
+    EXPECT_TRUE(std::filesystem::exists(dir / "map.snapshot.bad.1"));
+    EXPECT_FALSE(std::filesystem::exists(snapshot));
+  }
+  // Not a snapshot at all (bad magic), read directly.
+  std::ofstream(dir / "junk", std::ios::binary) << "definitely not a map snapshot";
+  PointMap map(1.0);
+  MapMeta meta;
+  const LoadReport junk = MapStorage::read_snapshot_file(dir / "junk", map, meta);
+  EXPECT_FALSE(junk.snapshot_ok);
+  EXPECT_TRUE(test::mentions(junk.problems, "not a map snapshot"));
+  const LoadReport missing = MapStorage::read_snapshot_file(dir / "absent", map, meta);
+  EXPECT_FALSE(missing.snapshot_found);
+  EXPECT_FALSE(missing.problems.empty());
+}
+
+TEST(MapStorage, ReadOnlyAccessChangesNothing) {
+  TempDir dir;
+  {
+    MapStorage storage(dir.path());
+    load(storage);
+    for (std::uint64_t s = 1; s <= 3; ++s) storage.append(observation(2, s));
+  }
+  const auto journal = dir / MapStorage::kJournalName;
+  const auto size = std::filesystem::file_size(journal);
+  test::truncate_to(journal, size - 3);
+  MapStorage reader(dir.path(), true, MapStorage::Access::kReadOnly);
+  const Loaded back = load(reader);
+  EXPECT_EQ(back.replayed.size(), 2u);
+  EXPECT_TRUE(test::mentions(back.report.problems, "ignored"));
+  EXPECT_EQ(std::filesystem::file_size(journal), size - 3);
+  EXPECT_THROW(reader.append(observation(2, 4)), std::logic_error);
+}
+
+TEST(MapStorage, IoFailuresThrowAndTheDirectoryIsLocked) {
+  TempDir dir;
+  std::ofstream(dir / "a_file") << "x";
+  EXPECT_THROW(MapStorage(dir / "a_file" / "map"), MapStorageError);
+  MapStorage first(dir / "map");
+  EXPECT_THROW(MapStorage(dir / "map"), MapStorageError);
+}
+
+TEST(MapStorage, FsyncOffStillWritesEverything) {
+  TempDir dir;
+  {
+    MapStorage storage(dir.path(), false);
+    load(storage);
+    storage.append(observation(1, 1));
+    storage.snapshot(sample_map(), MapMeta{});
+    storage.append(observation(1, 2));
+  }
+  MapStorage storage(dir.path(), false);
+  const Loaded back = load(storage);
+  EXPECT_TRUE(back.report.clean());
+  EXPECT_EQ(back.replayed.size(), 1u);
+  expect_same_map(sample_map(), back.map);
+}
+
+}  // namespace
+}  // namespace fuse
