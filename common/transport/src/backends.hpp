@@ -1,0 +1,29 @@
+// The two backends behind make_participant(), plus what they share: reading the key of a
+// keyed sample (a uint64 first member) and the key hash the DDS specification defines for it.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "fuse/transport/transport.hpp"
+
+namespace fuse::transport::detail {
+
+std::unique_ptr<Participant> make_fastdds_participant(const TransportConfig& config, const std::string& name);
+std::unique_ptr<Participant> make_cyclonedds_participant(const TransportConfig& config, const std::string& name);
+
+/// XCDR key hash of a type whose only key is its first member, a uint64: the key serialised
+/// big-endian (8 bytes) and zero-padded to 16. The key is read from the sample honouring the
+/// encapsulation's endianness (identifier bit 0: 1 = little endian). False when the sample is
+/// too short to hold a key (the hash is then all zero).
+inline bool key_hash_from_sample(const std::uint8_t* data, std::size_t size, std::array<std::uint8_t, 16>& hash) {
+  hash.fill(0);
+  if (data == nullptr || size < 4 + 8) return false;
+  const bool little = (data[1] & 1u) != 0;
+  for (int i = 0; i < 8; ++i) hash[i] = little ? data[4 + 7 - i] : data[4 + i];
+  return true;
+}
+
+}  // namespace fuse::transport::detail

@@ -1,0 +1,19 @@
+#include "fuse/transport/transport.hpp"
+
+namespace fuse::transport {
+
+void TransportConfig::load(ConfigNode& node) {
+  node.get("vendor", vendor).get("domain_id", domain_id).get("loopback_only", loopback_only);
+  node.get("max_participants", max_participants).get("socket_buffer_bytes", socket_buffer_bytes);
+  node.get("shared_memory", shared_memory);
+  node.check(vendor == "fastdds" || vendor == "cyclonedds", "vendor", "must be fastdds or cyclonedds");
+  // Ports are 7400 + 250 * domain + ...: above 101 they run into the ephemeral range.
+  node.check(domain_id >= 0 && domain_id <= 101, "domain_id", "must be in [0, 101]");
+  // Both vendors probe one unicast port per participant index up to this bound on 127.0.0.1.
+  node.check(max_participants >= 4 && max_participants <= 120, "max_participants", "must be in [4, 120]");
+  node.check(socket_buffer_bytes >= (64u << 10) && socket_buffer_bytes <= (256u << 20), "socket_buffer_bytes",
+             "must be in [64 KiB, 256 MiB]");
+  node.finish();
+}
+
+}  // namespace fuse::transport

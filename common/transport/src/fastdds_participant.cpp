@@ -1,0 +1,348 @@
+// Fast DDS 2.9 backend: moves opaque CDR samples (encapsulation header included) under the IDL
+// type name, so that the bytes Fast CDR wrote are the bytes on the wire.
+//
+// - Type: one TopicDataType per IDL type ("fuse_msgs::X"). serialize/deserialize are copies of
+//   the sample bytes; the largest size comes from the generated type (TypeSupport), no type
+//   object or type information is sent (Cyclone rejects fastddsgen's). A keyed type (our keys
+//   are a uint64 first member) hashes its key as the spec says for keys of at most 16 bytes:
+//   the key serialised big-endian and zero-padded (MD5 of it only when Fast DDS forces it).
+// - Memory: DYNAMIC_REUSABLE payloads. Samples go up to several MB at most but are usually
+//   small; preallocating max size x depth would reserve GBs.
+// - Discovery: UDPv4 only (the builtin transports are off; shared memory only when configured),
+//   unicast to initial peers on 127.0.0.1 because loopback has no multicast. Fast DDS probes
+//   the ports of participant ids 0..maxInitialPeersRange-1 there, so maxInitialPeersRange is
+//   the configured number of participants (the default 4 misses the fifth process).
+//   loopback_only whitelists 127.0.0.1, so nothing leaves the machine.
+// - Sockets: send/receive buffers of config.socket_buffer_bytes (4 MiB): with the default
+//   buffers a 1 MiB cloud takes ~12 ms on loopback (fragments are dropped and repaired), ~1 ms
+//   with 4 MiB.
+// - Reliable writers heartbeat every 100 ms (default 3 s) so a lost fragment is repaired fast.
+// - Shared memory: segments of crashed processes stay in /dev/shm; `fastdds shm clean` removes
+//   them when shared memory is enabled (best effort, never an error).
+// - Receive: the reader's listener takes every available sample and hands the bytes to the
+//   RawHandler, one call at a time per reader. Local writers deliver in the writer's thread
+//   (Fast DDS intra-process delivery), remote ones in the receive thread.
+#include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/publisher/DataWriter.hpp>
+#include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/publisher/qos/DataWriterQos.hpp>
+#include <fastdds/dds/subscriber/DataReader.hpp>
+#include <fastdds/dds/subscriber/DataReaderListener.hpp>
+#include <fastdds/dds/subscriber/SampleInfo.hpp>
+#include <fastdds/dds/subscriber/Subscriber.hpp>
+#include <fastdds/dds/subscriber/qos/DataReaderQos.hpp>
+#include <fastdds/dds/topic/Topic.hpp>
+#include <fastdds/dds/topic/TopicDataType.hpp>
+#include <fastdds/dds/topic/TypeSupport.hpp>
+#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+#include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
+#include <fastrtps/utils/IPLocator.h>
+#include <fastrtps/utils/md5.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <map>
+#include <mutex>
+#include <stdexcept>
+
+#include "backends.hpp"
+#include "fuse/core/logging.hpp"
+
+namespace fuse::transport::detail {
+
+namespace dds = eprosima::fastdds::dds;
+namespace rtps = eprosima::fastrtps::rtps;
+using eprosima::fastrtps::types::ReturnCode_t;
+
+namespace {
+
+std::shared_ptr<spdlog::logger> log() { return fuse::logger("transport"); }
+
+/// Opaque samples of one IDL type. The sample object Fast DDS passes around is a Bytes.
+class OpaqueType : public dds::TopicDataType {
+ public:
+  explicit OpaqueType(const TypeSupport& type) {
+    setName(type.name.c_str());
+    const std::size_t max = std::max<std::size_t>(type.max_serialized_size, 4);
+    m_typeSize = static_cast<uint32_t>(std::min<std::size_t>(max + 3, UINT32_MAX - 3) & ~std::size_t{3});
+    m_isGetKeyDefined = type.keyed;
+    auto_fill_type_object(false);
+    auto_fill_type_information(false);
+  }
+
+  bool serialize(void* data, rtps::SerializedPayload_t* payload) override {
+    const auto& sample = *static_cast<const Bytes*>(data);
+    if (sample.size() < 4 || sample.size() > payload->max_size) return false;
+    std::memcpy(payload->data, sample.data(), sample.size());
+    payload->length = static_cast<uint32_t>(sample.size());
+    payload->encapsulation = (sample[1] & 1u) ? CDR_LE : CDR_BE;
+    return true;
+  }
+
+  bool deserialize(rtps::SerializedPayload_t* payload, void* data) override {
+    auto& sample = *static_cast<Bytes*>(data);
+    sample.assign(payload->data, payload->data + payload->length);
+    return true;
+  }
+
+  std::function<uint32_t()> getSerializedSizeProvider(void* data) override {
+    return [data] { return static_cast<uint32_t>(static_cast<const Bytes*>(data)->size()); };
+  }
+
+  void* createData() override { return new Bytes(); }
+  void deleteData(void* data) override { delete static_cast<Bytes*>(data); }
+
+  bool getKey(void* data, rtps::InstanceHandle_t* handle, bool force_md5) override {
+    if (!m_isGetKeyDefined) return false;
+    const auto& sample = *static_cast<const Bytes*>(data);
+    std::array<std::uint8_t, 16> hash;
+    key_hash_from_sample(sample.data(), sample.size(), hash);  // a short sample hashes as key 0
+    if (force_md5) {
+      ::MD5 md5;
+      md5.init();
+      md5.update(hash.data(), 8);  // the serialised key: 8 big-endian bytes
+      md5.finalize();
+      std::memcpy(hash.data(), md5.digest, 16);
+    }
+    for (std::size_t i = 0; i < 16; ++i) handle->value[i] = hash[i];
+    return true;
+  }
+};
+
+/// The DDS participant with its one publisher and subscriber, and the topics in use. Shared by
+/// the Participant and every writer/reader it made, so their destruction order does not matter.
+class Context {
+ public:
+  Context(const TransportConfig& config, const std::string& name) {
+    if (config.shared_memory) {
+      // Remove segments left in /dev/shm by crashed processes; absent tool or failure is fine.
+      if (std::system("fastdds shm clean >/dev/null 2>&1") != 0) {
+        log()->debug("fastdds shm clean did not run; stale shared-memory segments may remain");
+      }
+    }
+    dds::DomainParticipantQos pqos;
+    pqos.name(name);
+    pqos.transport().use_builtin_transports = false;
+    auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
+    udp->sendBufferSize = static_cast<uint32_t>(config.socket_buffer_bytes);
+    udp->receiveBufferSize = static_cast<uint32_t>(config.socket_buffer_bytes);
+    udp->maxInitialPeersRange = static_cast<uint32_t>(config.max_participants);
+    if (config.loopback_only) udp->interfaceWhiteList.emplace_back("127.0.0.1");
+    pqos.transport().user_transports.push_back(udp);
+    if (config.shared_memory) {
+      auto shm = std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>();
+      shm->maxInitialPeersRange = static_cast<uint32_t>(config.max_participants);
+      pqos.transport().user_transports.push_back(shm);
+    }
+    rtps::Locator_t peer;
+    rtps::IPLocator::setIPv4(peer, 127, 0, 0, 1);  // port 0: every participant id in range
+    pqos.wire_protocol().builtin.initialPeersList.push_back(peer);
+
+    auto* factory = dds::DomainParticipantFactory::get_instance();
+    participant_ = factory->create_participant(config.domain_id, pqos);
+    if (participant_ == nullptr) {
+      throw std::runtime_error("transport: Fast DDS could not create a participant on domain " +
+                               std::to_string(config.domain_id));
+    }
+    publisher_ = participant_->create_publisher(dds::PUBLISHER_QOS_DEFAULT);
+    subscriber_ = participant_->create_subscriber(dds::SUBSCRIBER_QOS_DEFAULT);
+    if (publisher_ == nullptr || subscriber_ == nullptr) {
+      participant_->delete_contained_entities();
+      factory->delete_participant(participant_);
+      throw std::runtime_error("transport: Fast DDS could not create a publisher/subscriber");
+    }
+  }
+
+  ~Context() {
+    participant_->delete_contained_entities();
+    dds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
+  }
+
+  dds::Publisher* publisher() const { return publisher_; }
+  dds::Subscriber* subscriber() const { return subscriber_; }
+
+  /// The topic (created on first use, with its type registered); release_topic() when done.
+  dds::Topic* acquire_topic(const std::string& topic, const TypeSupport& type) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = topics_.find(topic);
+    if (it != topics_.end()) {
+      if (it->second.topic->get_type_name() != type.name) {
+        throw std::runtime_error("transport: topic '" + topic + "' already has type " +
+                                 it->second.topic->get_type_name() + ", not " + type.name);
+      }
+      ++it->second.users;
+      return it->second.topic;
+    }
+    if (participant_->find_type(type.name).empty()) {
+      dds::TypeSupport support(new OpaqueType(type));
+      if (participant_->register_type(support) != ReturnCode_t::RETCODE_OK) {
+        throw std::runtime_error("transport: Fast DDS could not register type " + type.name);
+      }
+    }
+    dds::Topic* t = participant_->create_topic(topic, type.name, dds::TOPIC_QOS_DEFAULT);
+    if (t == nullptr) throw std::runtime_error("transport: Fast DDS could not create topic '" + topic + "'");
+    topics_[topic] = TopicUse{t, 1};
+    return t;
+  }
+
+  void release_topic(const std::string& topic) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = topics_.find(topic);
+    if (it == topics_.end() || --it->second.users > 0) return;
+    participant_->delete_topic(it->second.topic);
+    topics_.erase(it);
+  }
+
+ private:
+  struct TopicUse {
+    dds::Topic* topic;
+    int users;
+  };
+  dds::DomainParticipant* participant_ = nullptr;
+  dds::Publisher* publisher_ = nullptr;
+  dds::Subscriber* subscriber_ = nullptr;
+  std::mutex mutex_;
+  std::map<std::string, TopicUse> topics_;
+};
+
+template <class Qos>
+void apply_common_qos(Qos& q, const TypeSupport& type, const TopicQos& qos) {
+  q.reliability().kind = qos.reliability == Reliability::kReliable ? dds::RELIABLE_RELIABILITY_QOS
+                                                                   : dds::BEST_EFFORT_RELIABILITY_QOS;
+  q.durability().kind = qos.durability == Durability::kTransientLocal ? dds::TRANSIENT_LOCAL_DURABILITY_QOS
+                                                                      : dds::VOLATILE_DURABILITY_QOS;
+  q.history().kind = dds::KEEP_LAST_HISTORY_QOS;
+  q.history().depth = qos.depth;
+  auto& limits = q.resource_limits();
+  limits.max_samples_per_instance = qos.depth;
+  if (type.keyed) {
+    limits.max_instances = dds::LENGTH_UNLIMITED;
+    limits.max_samples = dds::LENGTH_UNLIMITED;
+  } else {
+    limits.max_instances = 1;
+    limits.max_samples = qos.depth;
+  }
+  limits.allocated_samples = std::min(qos.depth, 16);
+  q.endpoint().history_memory_policy = rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
+  q.data_sharing().off();  // needs plain (fixed-size) types; ours are opaque byte strings
+}
+
+class FastddsWriter : public RawWriter {
+ public:
+  FastddsWriter(std::shared_ptr<Context> context, const std::string& topic, const TypeSupport& type,
+                const TopicQos& qos)
+      : context_(std::move(context)), topic_(topic) {
+    dds::Topic* t = context_->acquire_topic(topic, type);
+    dds::DataWriterQos q = context_->publisher()->get_default_datawriter_qos();
+    apply_common_qos(q, type, qos);
+    q.reliable_writer_qos().times.heartbeatPeriod = eprosima::fastrtps::Duration_t(0, 100000000);
+    writer_ = context_->publisher()->create_datawriter(t, q);
+    if (writer_ == nullptr) {
+      context_->release_topic(topic);
+      throw std::runtime_error("transport: Fast DDS could not create a writer on '" + topic + "'");
+    }
+  }
+  ~FastddsWriter() override {
+    context_->publisher()->delete_datawriter(writer_);
+    context_->release_topic(topic_);
+  }
+
+  bool write(const Bytes& sample) override {
+    if (writer_->write(const_cast<Bytes*>(&sample))) return true;
+    log()->warn("Fast DDS refused a sample of {} bytes on '{}'", sample.size(), topic_);
+    return false;
+  }
+
+  std::size_t matched_readers() const override {
+    dds::PublicationMatchedStatus status;
+    writer_->get_publication_matched_status(status);
+    return static_cast<std::size_t>(std::max(status.current_count, 0));
+  }
+
+ private:
+  std::shared_ptr<Context> context_;
+  std::string topic_;
+  dds::DataWriter* writer_ = nullptr;
+};
+
+class FastddsReader : public RawReader, public dds::DataReaderListener {
+ public:
+  FastddsReader(std::shared_ptr<Context> context, const std::string& topic, const TypeSupport& type,
+                const TopicQos& qos, RawHandler handler)
+      : context_(std::move(context)), topic_(topic), handler_(std::move(handler)) {
+    dds::Topic* t = context_->acquire_topic(topic, type);
+    dds::DataReaderQos q = context_->subscriber()->get_default_datareader_qos();
+    apply_common_qos(q, type, qos);
+    reader_ = context_->subscriber()->create_datareader(t, q, this, dds::StatusMask::data_available());
+    if (reader_ == nullptr) {
+      context_->release_topic(topic);
+      throw std::runtime_error("transport: Fast DDS could not create a reader on '" + topic + "'");
+    }
+  }
+  ~FastddsReader() override {
+    {
+      std::lock_guard<std::mutex> lock(take_mutex_);
+      closed_ = true;  // a callback already past the DDS layer returns without calling the handler
+    }
+    reader_->set_listener(nullptr);
+    context_->subscriber()->delete_datareader(reader_);
+    context_->release_topic(topic_);
+  }
+
+  std::size_t matched_writers() const override {
+    dds::SubscriptionMatchedStatus status;
+    reader_->get_subscription_matched_status(status);
+    return static_cast<std::size_t>(std::max(status.current_count, 0));
+  }
+
+  void on_data_available(dds::DataReader* reader) override {
+    std::lock_guard<std::mutex> lock(take_mutex_);
+    if (closed_) return;
+    dds::SampleInfo info;
+    while (reader->take_next_sample(&sample_, &info) == ReturnCode_t::RETCODE_OK) {
+      if (!info.valid_data) continue;  // dispose/unregister notifications carry no sample
+      try {
+        handler_(sample_.data(), sample_.size());
+      } catch (const std::exception& e) {
+        log()->error("handler of '{}' threw: {}", topic_, e.what());
+      }
+    }
+  }
+
+ private:
+  std::shared_ptr<Context> context_;
+  std::string topic_;
+  RawHandler handler_;
+  std::mutex take_mutex_;
+  bool closed_ = false;
+  Bytes sample_;  ///< reused receive buffer (take_mutex_)
+  dds::DataReader* reader_ = nullptr;
+};
+
+class FastddsParticipant : public Participant {
+ public:
+  FastddsParticipant(const TransportConfig& config, const std::string& name)
+      : context_(std::make_shared<Context>(config, name)) {}
+
+  std::unique_ptr<RawWriter> create_writer(const std::string& topic, const TypeSupport& type,
+                                           const TopicQos& qos) override {
+    return std::make_unique<FastddsWriter>(context_, topic, type, qos);
+  }
+  std::unique_ptr<RawReader> create_reader(const std::string& topic, const TypeSupport& type, const TopicQos& qos,
+                                           RawHandler handler) override {
+    return std::make_unique<FastddsReader>(context_, topic, type, qos, std::move(handler));
+  }
+  std::string vendor() const override { return "fastdds"; }
+
+ private:
+  std::shared_ptr<Context> context_;
+};
+
+}  // namespace
+
+std::unique_ptr<Participant> make_fastdds_participant(const TransportConfig& config, const std::string& name) {
+  return std::make_unique<FastddsParticipant>(config, name);
+}
+
+}  // namespace fuse::transport::detail

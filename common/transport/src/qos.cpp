@@ -1,0 +1,60 @@
+// THE table of topic QoS (DESIGN §3). Reliable + transient-local where a late or restarted
+// subscriber needs what was published before it joined; best-effort where only the newest
+// sample matters; depths sized to what a subscriber may need to catch up on.
+#include "fuse/transport/qos.hpp"
+
+#include <map>
+#include <stdexcept>
+
+#include "fuse/transport/rpc.hpp"
+
+namespace fuse::transport {
+
+namespace {
+
+constexpr TopicQos qos(Reliability r, Durability d, int depth) { return TopicQos{r, d, depth}; }
+constexpr auto kReliable = Reliability::kReliable;
+constexpr auto kBestEffort = Reliability::kBestEffort;
+constexpr auto kVolatile = Durability::kVolatile;
+constexpr auto kTransientLocal = Durability::kTransientLocal;
+
+std::map<std::string, TopicQos> make_table() {
+  std::map<std::string, TopicQos> t;
+  // IMU at up to ~400 Hz: 2000 samples (~5 s) stay with the writer, so a restarted fuse-state
+  // re-propagates from the buffered IMU instead of waiting for new data.
+  t[topics::kImu] = qos(kReliable, kTransientLocal, 2000);
+  // Scans are large (up to MBs); a few in flight absorb a slow reader, old ones are useless.
+  t[topics::kLidarScan] = qos(kReliable, kVolatile, 5);
+  // High-rate odometry: a lost sample is superseded by the next one; no retransmissions.
+  t[topics::kOdometry] = qos(kBestEffort, kVolatile, 10);
+  // The latest corrected state: a late joiner gets it at once.
+  t[topics::kCorrected] = qos(kReliable, kTransientLocal, 1);
+  // The latest posterior of fuse-update: fuse-state (re)starting picks it up.
+  t[topics::kCorrection] = qos(kReliable, kTransientLocal, 1);
+  // Every accepted scan's points must reach the map server (it journals them); 100 in flight.
+  t[topics::kObservation] = qos(kReliable, kVolatile, 100);
+  // Keyed by chunk: depth 1 per instance, so a late-joining replica gets the latest of every chunk.
+  t[topics::kMapChunk] = qos(kReliable, kTransientLocal, 1);
+  // Latest map status (epoch, mode, acked sequence) for late joiners.
+  t[topics::kMapStatus] = qos(kReliable, kTransientLocal, 1);
+  // Latest health of every writer (one writer per service instance) for a late monitor.
+  t[topics::kHealth] = qos(kReliable, kTransientLocal, 1);
+  // Request/reply: reliable, volatile (a late server must not answer stale requests), 32 deep
+  // so a burst of calls from several clients is not dropped.
+  for (const char* service : {services::kQuery, services::kHistory, services::kMapControl}) {
+    t[request_topic(service)] = qos(kReliable, kVolatile, 32);
+    t[reply_topic(service)] = qos(kReliable, kVolatile, 32);
+  }
+  return t;
+}
+
+}  // namespace
+
+const TopicQos& topic_qos(const std::string& topic) {
+  static const std::map<std::string, TopicQos> table = make_table();
+  auto it = table.find(topic);
+  if (it == table.end()) throw std::invalid_argument("transport: no QoS for unknown topic '" + topic + "'");
+  return it->second;
+}
+
+}  // namespace fuse::transport
