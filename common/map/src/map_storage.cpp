@@ -35,11 +35,11 @@ std::string at(const fs::path& file, std::uint64_t offset) {
 /// What went wrong with a record that next() did not return as kOk.
 std::string describe(const FrameReader& reader, FrameStatus status) {
   if (status == FrameStatus::kBadCrc) {
-    return "record of " + std::to_string(reader.frame_length()) + " bytes fails its CRC";
+    return "fails its CRC (" + std::to_string(reader.frame_length()) + " bytes)";
   }
   const std::uint64_t left = reader.file_size() - reader.frame_offset();
-  if (left < record_file::kFrameHeaderSize) return "truncated record header (" + std::to_string(left) + " bytes left)";
-  return "record announces " + std::to_string(reader.frame_length()) + " bytes, only " +
+  if (left < record_file::kFrameHeaderSize) return "is truncated (" + std::to_string(left) + " bytes of its frame header)";
+  return "announces " + std::to_string(reader.frame_length()) + " bytes, only " +
          std::to_string(left - record_file::kFrameHeaderSize) + " left (truncated, or a corrupted length)";
 }
 
@@ -173,7 +173,7 @@ LoadReport MapStorage::read_snapshot_file(const fs::path& file, PointMap& map, M
   if (status != FrameStatus::kOk || !header.ParseFromString(payload)) {
     const std::string what = status == FrameStatus::kOk ? "header record does not parse"
                              : status == FrameStatus::kEnd ? "no header record"
-                                                           : "header record: " + describe(reader, status);
+                                                           : "header record " + describe(reader, status);
     report.problems.push_back(at(file, reader.frame_offset()) + what);
     return report;
   }
@@ -192,13 +192,13 @@ LoadReport MapStorage::read_snapshot_file(const fs::path& file, PointMap& map, M
     const FrameStatus st = reader.next(payload);
     if (st == FrameStatus::kEnd) break;
     if (st == FrameStatus::kTruncated) {
-      report.problems.push_back(at(file, reader.frame_offset()) + "chunk " + describe(reader, st) + ": dropped");
+      report.problems.push_back(at(file, reader.frame_offset()) + "chunk record " + describe(reader, st) + ": dropped");
       ++report.chunks_dropped;
       truncated = true;
       break;
     }
     if (st == FrameStatus::kBadCrc) {
-      report.problems.push_back(at(file, reader.frame_offset()) + "chunk " + describe(reader, st) + ": dropped");
+      report.problems.push_back(at(file, reader.frame_offset()) + "chunk record " + describe(reader, st) + ": dropped");
       ++report.chunks_dropped;
       continue;
     }
@@ -353,7 +353,7 @@ void MapStorage::load_journal(MapMeta& meta, const ReplayFn& replay, LoadReport&
     const FrameStatus st = reader.next(payload);
     if (st == FrameStatus::kEnd) break;
     if (st != FrameStatus::kOk || !record.ParseFromString(payload) || record.xyz_size() % 3 != 0) {
-      const std::string what = st == FrameStatus::kOk ? "record does not parse as an observation" : describe(reader, st);
+      const std::string what = st == FrameStatus::kOk ? "record does not parse as an observation" : "record " + describe(reader, st);
       report.problems.push_back(at(journal, reader.frame_offset()) + what + ": journal " +
                                 (writable ? "cut" : "ignored") + " from here (" +
                                 std::to_string(reader.file_size() - good_end) + " bytes)");

@@ -1,0 +1,373 @@
+// Map server core (map_server_core.hpp): restart equivalence, duplicates, modes, save/load and
+// damaged files, all without DDS.
+#include "fuse/map/map_server_core.hpp"
+
+#include <gtest/gtest.h>
+
+#include <limits>
+#include <random>
+
+#include "test_files.hpp"
+
+namespace fuse {
+namespace {
+
+using test::TempDir;
+
+MapServerConfig config_in(const std::filesystem::path& dir, std::size_t snapshot_every = 0) {
+  MapServerConfig config;
+  config.directory = dir.string();
+  config.chunk_size = 8.0;  // small chunks: a scan touches several, some with negative coordinates
+  config.snapshot_every = snapshot_every;
+  config.policy.min_point_distance = 0.3;
+  return config;
+}
+
+/// A scan-like observation: points on the walls and floor of a corridor around x = 2·sequence - 15,
+/// overlapping the previous scans so that the policy skips part of them.
+std::vector<Eigen::Vector3f> scan(std::uint64_t session, std::uint64_t sequence, int n = 400) {
+  std::mt19937 rng(static_cast<std::uint32_t>(session * 1000 + sequence));
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  const float cx = 2.f * static_cast<float>(sequence) - 15.f;
+  std::vector<Eigen::Vector3f> points;
+  for (int i = 0; i < n; ++i) {
+    const float x = cx + 6.f * u(rng);
+    switch (i % 3) {
+      case 0: points.emplace_back(x, -2.f, 1.5f + 1.5f * u(rng)); break;
+      case 1: points.emplace_back(x, 2.f, 1.5f + 1.5f * u(rng)); break;
+      default: points.emplace_back(x, 2.f * u(rng), -0.5f); break;
+    }
+  }
+  return points;
+}
+
+void expect_same_map(const PointMap& a, const PointMap& b) {
+  EXPECT_EQ(a.chunk_size(), b.chunk_size());
+  ASSERT_EQ(a.num_chunks(), b.num_chunks());
+  ASSERT_EQ(a.num_points(), b.num_points());
+  a.for_each_chunk([&](const PointChunk& ca) {
+    const PointChunk* cb = b.chunk(ca.key);
+    ASSERT_NE(cb, nullptr) << "chunk " << ca.coord.transpose();
+    EXPECT_EQ(ca.revision, cb->revision) << "chunk " << ca.coord.transpose();
+    EXPECT_EQ(ca.points, cb->points) << "chunk " << ca.coord.transpose();
+  });
+}
+
+/// Applies sequences [from, to] of two interleaved sessions.
+void feed(MapServerCore& core, std::uint64_t from, std::uint64_t to) {
+  for (std::uint64_t s = from; s <= to; ++s) {
+    core.apply(11, s, 0.1 * static_cast<double>(s), scan(11, s));
+    core.apply(22, s, 0.1 * static_cast<double>(s), scan(22, s, 100));
+  }
+}
+
+void expect_restart_equivalence(std::size_t snapshot_every) {
+  TempDir dir;
+  PointMap before(1.0);
+  std::map<std::uint64_t, std::uint64_t> acked_before;
+  MapServerStats stats_before;
+  {
+    MapServerCore core(config_in(dir.path(), snapshot_every));
+    feed(core, 1, 15);
+    before = core.map();
+    acked_before = core.acked_sequences();
+    stats_before = core.stats();
+    EXPECT_EQ(core.index().size(), core.map().num_points());
+  }
+  MapServerCore core(config_in(dir.path(), snapshot_every));
+  EXPECT_TRUE(core.load_report().clean()) << core.load_report().summary();
+  expect_same_map(before, core.map());
+  EXPECT_EQ(core.acked_sequences(), acked_before);
+  EXPECT_EQ(core.acked(11), 15u);
+  EXPECT_EQ(core.stats().observations_applied, stats_before.observations_applied);
+  EXPECT_EQ(core.index().size(), core.map().num_points());
+  // ... and it goes on exactly as the first instance would have.
+  MapServerCore reference_dir_less(config_in(dir / "reference", 0));
+  feed(reference_dir_less, 1, 18);
+  feed(core, 16, 18);
+  expect_same_map(reference_dir_less.map(), core.map());
+}
+
+TEST(MapServerCore, RestartFromJournalOnlyGivesTheSameMapAndAcks) { expect_restart_equivalence(0); }
+
+TEST(MapServerCore, RestartFromSnapshotsAndJournalGivesTheSameMapAndAcks) { expect_restart_equivalence(7); }
+
+TEST(MapServerCore, ApplyReportsInsertedPointsAndChangedChunks) {
+  TempDir dir;
+  MapServerCore core(config_in(dir.path()));
+  const auto first = core.apply(1, 1, 0.0, scan(1, 1));
+  EXPECT_TRUE(first.applied);
+  EXPECT_FALSE(first.duplicate);
+  EXPECT_EQ(first.acked, 1u);
+  EXPECT_GT(first.inserted, 0u);
+  EXPECT_EQ(core.map().num_points(), first.inserted);
+  EXPECT_EQ(first.changed_chunks.size(), core.map().num_chunks());
+  // The same points again: all within min_point_distance of the map, nothing changes.
+  const auto again = core.apply(1, 2, 0.1, scan(1, 1));
+  EXPECT_TRUE(again.applied);
+  EXPECT_EQ(again.inserted, 0u);
+  EXPECT_TRUE(again.changed_chunks.empty());
+  // Changed chunks are exactly those whose revision moved.
+  std::map<std::uint64_t, std::uint64_t> revisions;
+  core.map().for_each_chunk([&](const PointChunk& c) { revisions[c.key] = c.revision; });
+  const auto third = core.apply(1, 3, 0.2, scan(1, 9));
+  std::size_t moved = 0;
+  core.map().for_each_chunk([&](const PointChunk& c) {
+    const bool changed = std::binary_search(third.changed_chunks.begin(), third.changed_chunks.end(), c.key);
+    EXPECT_EQ(changed, revisions[c.key] != c.revision) << c.coord.transpose();
+    moved += changed;
+  });
+  EXPECT_EQ(moved, third.changed_chunks.size());
+}
+
+TEST(MapServerCore, DuplicatesAreAcknowledgedButAppliedOnce) {
+  TempDir dir;
+  {
+    MapServerCore core(config_in(dir.path()));
+    core.apply(5, 1, 0.0, scan(5, 1));
+    core.apply(5, 2, 0.1, scan(5, 2));
+    const std::size_t points = core.map().num_points();
+    const std::size_t records = core.stats().journal_records;
+    for (std::uint64_t s : {2, 1, 2}) {
+      const auto r = core.apply(5, s, 0.0, scan(5, 7));  // different points: must not matter
+      EXPECT_TRUE(r.duplicate);
+      EXPECT_FALSE(r.applied);
+      EXPECT_EQ(r.acked, 2u);
+    }
+    EXPECT_EQ(core.map().num_points(), points);
+    EXPECT_EQ(core.stats().journal_records, records);
+    EXPECT_EQ(core.stats().duplicates, 3u);
+    EXPECT_EQ(core.stats().observations_applied, 2u);
+    // Another session's sequence 1 is not a duplicate.
+    EXPECT_FALSE(core.apply(6, 1, 0.0, scan(6, 1)).duplicate);
+  }
+  MapServerCore core(config_in(dir.path()));
+  EXPECT_TRUE(core.apply(5, 2, 0.0, scan(5, 2)).duplicate);
+  EXPECT_EQ(core.stats().observations_applied, 3u);
+}
+
+TEST(MapServerCore, CrashBetweenSnapshotAndJournalResetAppliesNothingTwice) {
+  TempDir dir;
+  PointMap before(1.0);
+  const auto journal = dir / MapStorage::kJournalName;
+  const auto kept = dir / "journal.before_snapshot";
+  {
+    MapServerCore core(config_in(dir.path()));
+    feed(core, 1, 6);
+    std::filesystem::copy_file(journal, kept);
+    core.save();
+    EXPECT_EQ(core.stats().journal_records, 0u);
+    before = core.map();
+  }
+  // As if the process died after the snapshot's rename, before the journal restarted.
+  std::filesystem::copy_file(kept, journal, std::filesystem::copy_options::overwrite_existing);
+  MapServerCore core(config_in(dir.path()));
+  EXPECT_TRUE(core.load_report().clean()) << core.load_report().summary();
+  EXPECT_EQ(core.load_report().journal_skipped, 12u);
+  EXPECT_EQ(core.load_report().journal_replayed, 0u);
+  expect_same_map(before, core.map());
+  EXPECT_EQ(core.stats().observations_applied, 12u);
+}
+
+TEST(MapServerCore, DamagedJournalKeepsTheGoodPrefixAndResumes) {
+  TempDir dir;
+  {
+    MapServerCore core(config_in(dir.path()));
+    for (std::uint64_t s = 1; s <= 8; ++s) core.apply(3, s, 0.0, scan(3, s));
+  }
+  const auto journal = dir / MapStorage::kJournalName;
+  const auto offsets = test::record_offsets(journal);
+  ASSERT_EQ(offsets.size(), 8u);
+  test::flip_byte(journal, offsets[5] + 100);
+  {
+    MapServerCore core(config_in(dir.path()));
+    EXPECT_FALSE(core.load_report().clean());
+    EXPECT_EQ(core.acked(3), 5u);  // the client re-sends 6..8
+    EXPECT_EQ(core.stats().observations_applied, 5u);
+    for (std::uint64_t s = 6; s <= 8; ++s) EXPECT_TRUE(core.apply(3, s, 0.0, scan(3, s)).applied);
+  }
+  MapServerCore core(config_in(dir.path()));
+  EXPECT_TRUE(core.load_report().clean()) << core.load_report().summary();
+  MapServerCore reference(config_in(dir / "reference"));
+  for (std::uint64_t s = 1; s <= 8; ++s) reference.apply(3, s, 0.0, scan(3, s));
+  expect_same_map(reference.map(), core.map());
+}
+
+TEST(MapServerCore, LocalizationModeFreezesTheMap) {
+  TempDir dir;
+  {
+    MapServerCore core(config_in(dir.path()));
+    core.apply(1, 1, 0.0, scan(1, 1));
+    const PointMap frozen = core.map();
+    const std::size_t records = core.stats().journal_records;
+    core.set_mode("localization");
+    EXPECT_EQ(core.mode(), "localization");
+    for (std::uint64_t s = 2; s <= 4; ++s) {
+      const auto r = core.apply(1, s, 0.0, scan(1, s + 10));
+      EXPECT_FALSE(r.duplicate);
+      EXPECT_FALSE(r.applied);
+      EXPECT_EQ(r.inserted, 0u);
+      EXPECT_EQ(r.acked, s);
+    }
+    expect_same_map(frozen, core.map());
+    EXPECT_EQ(core.stats().journal_records, records);
+    EXPECT_THROW(core.set_mode("painting"), std::invalid_argument);
+    core.set_mode("mapping");
+    EXPECT_TRUE(core.apply(1, 4, 0.0, scan(1, 14)).duplicate);  // acknowledged in localization
+    EXPECT_TRUE(core.apply(1, 5, 0.0, scan(1, 15)).applied);
+  }
+  // Started in localization by config: nothing changes either.
+  MapServerConfig config = config_in(dir.path());
+  config.policy.mode = "localization";
+  MapServerCore core(config);
+  const std::size_t points = core.map().num_points();
+  EXPECT_EQ(core.acked(1), 5u);
+  EXPECT_FALSE(core.apply(1, 6, 0.0, scan(1, 20)).applied);
+  EXPECT_EQ(core.map().num_points(), points);
+}
+
+TEST(MapServerCore, SaveToFileAndLoadReplaceTheMapAndBumpTheEpoch) {
+  TempDir dir;
+  const auto file = dir / "saved.snapshot";
+  PointMap saved(1.0);
+  {
+    MapServerCore a(config_in(dir / "a"));
+    feed(a, 1, 5);
+    EXPECT_EQ(a.save(file), file);
+    saved = a.map();
+  }
+  {
+    MapServerCore b(config_in(dir / "b"));
+    b.apply(99, 40, 0.0, scan(99, 40));
+    EXPECT_EQ(b.epoch(), 0u);
+    const LoadReport report = b.load(file);
+    EXPECT_TRUE(report.snapshot_ok);
+    EXPECT_TRUE(report.clean()) << report.summary();
+    EXPECT_EQ(b.epoch(), 1u);
+    expect_same_map(saved, b.map());
+    EXPECT_EQ(b.index().size(), saved.num_points());
+    EXPECT_EQ(b.acked(99), 40u);  // acknowledgements never go back
+    EXPECT_EQ(b.acked(11), 5u);   // the loaded map's sessions
+    // A missing or unreadable file leaves everything as it was.
+    const LoadReport missing = b.load(dir / "absent.snapshot");
+    EXPECT_FALSE(missing.snapshot_ok);
+    EXPECT_FALSE(missing.problems.empty());
+    EXPECT_EQ(b.epoch(), 1u);
+    expect_same_map(saved, b.map());
+    b.apply(99, 41, 0.0, scan(99, 41));
+    saved = b.map();
+  }
+  // The replacement was durable: a restart serves the loaded map, its epoch and what followed.
+  MapServerCore b(config_in(dir / "b"));
+  EXPECT_TRUE(b.load_report().clean()) << b.load_report().summary();
+  EXPECT_EQ(b.epoch(), 1u);
+  expect_same_map(saved, b.map());
+  EXPECT_EQ(b.acked(99), 41u);
+}
+
+TEST(MapServerCore, CorruptedChunkInTheSnapshotLosesOnlyThatChunk) {
+  TempDir dir;
+  PointMap before(1.0);
+  {
+    MapServerCore core(config_in(dir.path()));
+    feed(core, 1, 6);
+    core.save();
+    before = core.map();
+  }
+  const auto snapshot = dir / MapStorage::kSnapshotName;
+  const auto offsets = test::record_offsets(snapshot);
+  ASSERT_GE(offsets.size(), 4u);
+  test::flip_byte(snapshot, offsets[2] + 30);
+  MapServerCore core(config_in(dir.path()));
+  EXPECT_EQ(core.load_report().chunks_dropped, 1u);
+  EXPECT_EQ(core.map().num_chunks(), before.num_chunks() - 1);
+  EXPECT_EQ(core.acked(11), 6u);
+  EXPECT_EQ(core.index().size(), core.map().num_points());
+}
+
+TEST(MapServerCore, TruncatedSnapshotKeepsItsGoodChunks) {
+  TempDir dir;
+  std::size_t chunks = 0;
+  {
+    MapServerCore core(config_in(dir.path()));
+    feed(core, 1, 6);
+    core.save();
+    chunks = core.map().num_chunks();
+  }
+  const auto snapshot = dir / MapStorage::kSnapshotName;
+  const auto offsets = test::record_offsets(snapshot);
+  test::truncate_to(snapshot, offsets.back() + 5);
+  MapServerCore core(config_in(dir.path()));
+  EXPECT_TRUE(core.load_report().snapshot_ok);
+  EXPECT_EQ(core.map().num_chunks(), chunks - 1);
+  EXPECT_TRUE(test::mentions(core.load_report().problems, "truncated"));
+}
+
+TEST(MapServerCore, PointsThatCannotBeStoredAreRejected) {
+  TempDir dir;
+  MapServerCore core(config_in(dir.path()));
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const auto r = core.apply(1, 1, 0.0, {{1, 1, 1}, {nan, 0, 0}, {0, 0, 1.0e30f}});
+  EXPECT_TRUE(r.applied);
+  EXPECT_EQ(r.rejected, 2u);
+  EXPECT_EQ(r.inserted, 1u);
+  EXPECT_EQ(core.map().num_points(), 1u);
+}
+
+TEST(MapServerCore, ReadOnlyOpensWithoutChangingTheDirectory) {
+  TempDir dir;
+  PointMap before(1.0);
+  {
+    MapServerCore core(config_in(dir.path()));
+    feed(core, 1, 3);
+    before = core.map();
+  }
+  MapServerCore reader(config_in(dir.path()), MapStorage::Access::kReadOnly);
+  expect_same_map(before, reader.map());
+  EXPECT_THROW(reader.apply(11, 4, 0.0, scan(11, 4)), std::logic_error);
+  EXPECT_THROW(reader.save(), std::logic_error);
+  EXPECT_FALSE(std::filesystem::exists(dir / MapStorage::kSnapshotName));
+  reader.save(dir / "export.snapshot");  // to another file is fine
+  EXPECT_TRUE(std::filesystem::exists(dir / "export.snapshot"));
+}
+
+TEST(MapServerConfig, LoadsValidatesAndRefusesUnknownKeys) {
+  MapServerConfig config;
+  ConfigNode node = ConfigNode::from_string(
+      "directory: maps/site\nchunk_size: 25\nsnapshot_every: 50\nfsync: false\n"
+      "policy: {mode: localization, min_point_distance: 0.1}\nindex: {voxel_size: 0.4}\n");
+  config.load(node);
+  EXPECT_EQ(config.directory, "maps/site");
+  EXPECT_EQ(config.chunk_size, 25.0);
+  EXPECT_EQ(config.snapshot_every, 50u);
+  EXPECT_FALSE(config.fsync);
+  EXPECT_EQ(config.policy.mode, "localization");
+  EXPECT_EQ(config.index.voxel_size, 0.4);
+  EXPECT_EQ(config.index.max_voxels, MapServerConfig::kNoEviction);
+
+  const char* bad[] = {"chunk_size: 0\n", "directory: ''\n", "index: {max_voxels: 5000}\n", "journal: true\n",
+                       "policy: {mode: painting}\n"};
+  for (const char* text : bad) {
+    MapServerConfig c;
+    ConfigNode n = ConfigNode::from_string(text);
+    EXPECT_THROW(c.load(n), ConfigError) << text;
+  }
+}
+
+TEST(MapPolicy, ReportsTheInsertedPoints) {
+  MapPolicyConfig cfg;
+  cfg.min_point_distance = 0.25;
+  auto index = make_spatial_index(SpatialIndexConfig{});
+  index->insert({Eigen::Vector3f::Zero()});
+  std::vector<Eigen::Vector3f> inserted{{9, 9, 9}};
+  make_map_policy(cfg)->apply({{0.1f, 0, 0}, {1, 0, 0}, {0, 2, 0}}, *index, nullptr, &inserted);
+  ASSERT_EQ(inserted.size(), 2u);
+  EXPECT_EQ(inserted[0], Eigen::Vector3f(1, 0, 0));
+  EXPECT_EQ(inserted[1], Eigen::Vector3f(0, 2, 0));
+  cfg.mode = "localization";
+  make_map_policy(cfg)->apply({{5, 5, 5}}, *index, nullptr, &inserted);
+  EXPECT_TRUE(inserted.empty());
+}
+
+}  // namespace
+}  // namespace fuse
