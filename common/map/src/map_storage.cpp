@@ -84,6 +84,17 @@ void truncate_file(const fs::path& file, std::uint64_t size, bool fsync) {
   ::close(fd);
 }
 
+MapMeta meta_of(const map::pb::SnapshotHeader& header) {
+  MapMeta meta;
+  meta.frame_id = header.frame_id();
+  meta.min_point_distance = header.min_point_distance();
+  meta.mode = header.mode();
+  meta.epoch = header.epoch();
+  meta.observations = header.observations();
+  for (const auto& s : header.applied()) meta.applied[s.session()] = s.sequence();
+  return meta;
+}
+
 }  // namespace
 
 std::string LoadReport::summary() const {
@@ -226,16 +237,23 @@ LoadReport MapStorage::read_snapshot_file(const fs::path& file, PointMap& map, M
     report.chunks_dropped = header.chunk_count() - report.chunks_loaded;
   }
 
-  meta = MapMeta{};
-  meta.frame_id = header.frame_id();
-  meta.min_point_distance = header.min_point_distance();
-  meta.mode = header.mode();
-  meta.epoch = header.epoch();
-  meta.observations = header.observations();
-  for (const auto& s : header.applied()) meta.applied[s.session()] = s.sequence();
+  meta = meta_of(header);
   map = std::move(loaded);
   report.snapshot_ok = true;
   return report;
+}
+
+bool MapStorage::read_snapshot_header(const fs::path& file, MapMeta& meta) {
+  FrameReader reader(file);
+  std::uint32_t version = 0;
+  std::string payload;
+  map::pb::SnapshotHeader header;
+  if (!reader.is_open() || !reader.read_file_header(kSnapshotMagic, version) || version != kFormatVersion ||
+      reader.next(payload) != FrameStatus::kOk || !header.ParseFromString(payload)) {
+    return false;
+  }
+  meta = meta_of(header);
+  return true;
 }
 
 // ---- the map directory --------------------------------------------------------------------

@@ -126,6 +126,8 @@ class MapStorage {
   /// Reads a snapshot file into map and meta (replaced when its header is readable, untouched
   /// otherwise). A missing or unreadable file is reported (snapshot_ok false), never thrown.
   static LoadReport read_snapshot_file(const std::filesystem::path& file, PointMap& map, MapMeta& meta);
+  /// Reads only a snapshot file's header into meta; false (meta untouched) when it is unreadable.
+  static bool read_snapshot_header(const std::filesystem::path& file, MapMeta& meta);
 
  private:
   void load_journal(MapMeta& meta, const ReplayFn& replay, LoadReport& report);
