@@ -46,6 +46,9 @@ struct MapServerConfig {
   std::size_t snapshot_every = 500;  ///< journaled observations between automatic snapshots; 0: only on save
   bool fsync = true;                 ///< false only for benches: acknowledged data may then be lost
   MapPolicyConfig policy;            ///< policy.mode is the mode at start-up
+  /// The policy's nearest-neighbour index over the map's points. A restart rebuilds the same map
+  /// when the index holds every point: it never evicts (max_voxels), and max_points_per_voxel
+  /// should stay above what min_point_distance lets into one voxel (64 > (0.5/0.25 + 1)^3 by default).
   SpatialIndexConfig index = default_index();
 
   static SpatialIndexConfig default_index();
