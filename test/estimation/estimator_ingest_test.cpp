@@ -19,8 +19,9 @@ ImuSample still_imu(double t) {
 }
 
 std::uint64_t counter(const Estimator& est, const std::string& name) {
-  const auto it = est.counters().find(name);
-  return it == est.counters().end() ? 0 : it->second;
+  const auto counts = est.counters();
+  const auto it = counts.find(name);
+  return it == counts.end() ? 0 : it->second;
 }
 
 constexpr int kInitSamples = 300;  // 1.5 s of still IMU (static initialisation needs 1 s by default)

@@ -17,33 +17,6 @@ void RunnerConfig::load(ConfigNode& root) {
 }
 
 namespace {
-/// Sets node[a][b][c] = value for key "a.b.c", parsing value as YAML (numbers, bools, lists).
-void apply_override(YAML::Node root, const std::string& assignment) {
-  const auto eq = assignment.find('=');
-  if (eq == std::string::npos || eq == 0) throw ConfigError("override '" + assignment + "' is not key=value");
-  const std::string key = assignment.substr(0, eq);
-  YAML::Node value;
-  try {
-    value = YAML::Load(assignment.substr(eq + 1));
-  } catch (const YAML::Exception&) {
-    throw ConfigError("override '" + assignment + "': value is not valid YAML");
-  }
-  std::vector<std::string> parts;
-  std::size_t start = 0;
-  for (std::size_t dot; (dot = key.find('.', start)) != std::string::npos; start = dot + 1) {
-    parts.push_back(key.substr(start, dot - start));
-  }
-  parts.push_back(key.substr(start));
-  std::vector<YAML::Node> chain{root};
-  for (std::size_t i = 0; i + 1 < parts.size(); ++i) {
-    YAML::Node next = chain.back()[parts[i]];
-    if (!next.IsDefined() || next.IsNull()) next = YAML::Node(YAML::NodeType::Map);
-    chain.back()[parts[i]] = next;
-    chain.push_back(chain.back()[parts[i]]);
-  }
-  chain.back()[parts.back()] = value;
-}
-
 void write_timing(const std::string& path, const std::vector<ScanReport>& reports) {
   std::ofstream f(path);
   f << "scan,t,points_in,points_kept,deskew_ms,association_ms,update_ms,map_ms,total_ms\n" << std::fixed;
@@ -86,16 +59,7 @@ void summarise_timing(RunSummary& s) {
 }  // namespace
 
 RunnerConfig load_runner_config(const std::string& file, const std::vector<std::string>& overrides) {
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(file);
-  } catch (const YAML::BadFile&) {
-    throw ConfigError("cannot open config file '" + file + "'");
-  } catch (const YAML::ParserException& e) {
-    throw ConfigError("config file '" + file + "' is not valid YAML: " + e.what());
-  }
-  for (const auto& o : overrides) apply_override(root, o);
-  ConfigNode node(root, "");
+  ConfigNode node(load_yaml_file(file, overrides), "");
   RunnerConfig config;
   config.load(node);
   return config;

@@ -78,4 +78,47 @@ void ConfigNode::check(bool ok, const std::string& key, const std::string& what)
   if (!ok) throw ConfigError(key_path(key) + ": " + what);
 }
 
+namespace {
+/// Sets node[a][b][c] = value for key "a.b.c", parsing value as YAML (numbers, bools, lists).
+void apply_override(YAML::Node root, const std::string& assignment) {
+  const auto eq = assignment.find('=');
+  if (eq == std::string::npos || eq == 0) throw ConfigError("override '" + assignment + "' is not key=value");
+  const std::string key = assignment.substr(0, eq);
+  YAML::Node value;
+  try {
+    value = YAML::Load(assignment.substr(eq + 1));
+  } catch (const YAML::Exception&) {
+    throw ConfigError("override '" + assignment + "': value is not valid YAML");
+  }
+  std::vector<std::string> parts;
+  std::size_t start = 0;
+  for (std::size_t dot; (dot = key.find('.', start)) != std::string::npos; start = dot + 1) {
+    parts.push_back(key.substr(start, dot - start));
+  }
+  parts.push_back(key.substr(start));
+  std::vector<YAML::Node> chain{root};
+  for (std::size_t i = 0; i + 1 < parts.size(); ++i) {
+    YAML::Node next = chain.back()[parts[i]];
+    if (!next.IsDefined() || next.IsNull()) next = YAML::Node(YAML::NodeType::Map);
+    chain.back()[parts[i]] = next;
+    chain.push_back(chain.back()[parts[i]]);
+  }
+  chain.back()[parts.back()] = value;
+}
+
+}  // namespace
+
+YAML::Node load_yaml_file(const std::string& file, const std::vector<std::string>& overrides) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(file);
+  } catch (const YAML::BadFile&) {
+    throw ConfigError("cannot open config file '" + file + "'");
+  } catch (const YAML::ParserException& e) {
+    throw ConfigError("config file '" + file + "' is not valid YAML: " + e.what());
+  }
+  for (const auto& o : overrides) apply_override(root, o);
+  return root;
+}
+
 }  // namespace fuse

@@ -43,6 +43,11 @@ void StateHistory::reset(double t, const NavState& x, const StateCovariance& P, 
   last_correction_t_ = t;
 }
 
+void StateHistory::assign(const std::vector<Entry>& entries, double last_correction_t) {
+  entries_.assign(entries.begin(), entries.end());
+  last_correction_t_ = last_correction_t;
+}
+
 void StateHistory::add_imu(const ImuSample& imu) {
   Entry next = entries_.back();
   const double dt = imu.t - next.t;

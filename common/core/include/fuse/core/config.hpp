@@ -48,6 +48,11 @@ class ConfigNode {
   std::set<std::string> used_;
 };
 
+/// Reads a YAML file and applies "dotted.key=value" overrides (the value parsed as YAML, e.g.
+/// estimator.update.max_iterations=3). Unreadable file, bad YAML or a malformed override ->
+/// ConfigError naming it.
+YAML::Node load_yaml_file(const std::string& file, const std::vector<std::string>& overrides = {});
+
 /// Loads the sub-map `key` of parent into a config struct with a `load(ConfigNode&)` member.
 template <typename Section>
 void load_section(ConfigNode& parent, const std::string& key, Section& section) {

@@ -49,6 +49,9 @@ class StateHistory {
   /// Starts the history at time t (static initialisation result).
   void reset(double t, const NavState& x, const StateCovariance& P, const ImuSample& held);
   bool initialised() const { return !entries_.empty(); }
+  /// Replaces the history by `entries` (sorted by time, not empty): a slice received from the
+  /// process that owns the history (fuse-update runs the LiDAR step on it).
+  void assign(const std::vector<Entry>& entries, double last_correction_t);
 
   /// Propagates the newest entry to imu.t with the average of the held and the new measurement.
   void add_imu(const ImuSample& imu);

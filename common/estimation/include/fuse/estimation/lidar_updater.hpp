@@ -1,0 +1,90 @@
+// Spatial + inference + functional side of one LiDAR step (DESIGN §1), given a state history
+// that holds an entry at the scan end:
+//   1. range filter + voxel downsample the raw points
+//   2. deskew each kept point through the history                 (temporal query)
+//   3. associate against the map, screen, update at t_e           (spatial + inference)
+//      and correct the history there
+//   4. offer the world-frame points to the map policy             (functional)
+// The single-process Estimator runs it on its own history; the fuse-update service runs it on
+// the slice of history it receives from fuse-state, and sends the posterior back.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "fuse/association/associator.hpp"
+#include "fuse/association/spatial_index.hpp"
+#include "fuse/association/voxel_filter.hpp"
+#include "fuse/core/counters.hpp"
+#include "fuse/core/types.hpp"
+#include "fuse/estimation/deskew.hpp"
+#include "fuse/estimation/estimator_config.hpp"
+#include "fuse/estimation/state_history.hpp"
+#include "fuse/estimation/update_backend.hpp"
+#include "fuse/map/map_policy.hpp"
+
+namespace fuse {
+
+/// Per-scan diagnostics and timing (written by the runner to timing.csv / diagnostics.csv).
+struct ScanReport {
+  double t = 0.0;
+  std::uint64_t sequence = 0;
+  bool updated = false;
+  std::size_t points_in = 0, points_kept = 0;
+  std::size_t constraints = 0, rejected_no_neighbors = 0, rejected_not_planar = 0, rejected_screening = 0;
+  int iterations = 0;
+  bool converged = false;
+  double min_eig_translation = 0.0, min_eig_rotation = 0.0, min_gamma = 1.0, min_eig_ratio = 1.0;
+  std::size_t map_points = 0, map_inserted = 0;
+  double ms_deskew = 0.0, ms_association = 0.0, ms_update = 0.0, ms_map = 0.0, ms_total = 0.0;
+};
+
+class LidarUpdater {
+ public:
+  explicit LidarUpdater(const EstimatorConfig& config);
+
+  /// Runs steps 1–4 for a scan; `history` must hold an entry at scan.t_end (ensure_entry). The
+  /// posterior is written into `history` at t_end. Throws DivergenceError.
+  ScanReport process(const LidarScan& scan, StateHistory& history);
+  /// Γ_k: posterior update at time t with a measurement model, correcting the history at t.
+  UpdateResult update(MeasurementModel& model, StateHistory& history, double t);
+
+  /// World-frame points of the last processed scan at its posterior (the accepted observation
+  /// offered to the map) and the pose they were placed with.
+  const std::vector<Eigen::Vector3f>& last_world_points() const { return points_W_; }
+  const Eigen::Isometry3d& last_T_world_lidar() const { return T_WL_; }
+
+  SpatialIndex& map() { return *map_; }
+  const SpatialIndex& map() const { return *map_; }
+  /// Replaces the map policy at run time (mapping | localization).
+  void set_map_mode(const std::string& mode);
+  std::string map_mode() const { return map_policy_->name(); }
+  Counters& counters() { return counters_; }
+  const Counters& counters() const { return counters_; }
+
+ private:
+  void downsample();
+  void order_spatially();
+  void check_divergence(const ScanReport& report, const StateHistory& history);
+
+  EstimatorConfig config_;
+  std::unique_ptr<SpatialIndex> map_;
+  std::unique_ptr<UpdateBackend> backend_;
+  std::unique_ptr<MapPolicy> map_policy_;
+  Associator associator_;
+  VoxelFilter voxel_filter_;
+  float voxel_size_;  ///< downsampling voxel in use (adapts to max_points)
+  Deskewer deskewer_;
+  int scans_without_constraints_ = 0;
+  Counters counters_;
+  Eigen::Isometry3d T_WL_ = Eigen::Isometry3d::Identity();
+  // Per-scan buffers reused to avoid allocation on the hot path.
+  std::vector<Eigen::Vector3f> raw_, points_L_, points_W_;
+  std::vector<std::uint32_t> in_range_, kept_, kept_raw_;
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed_;
+  ConstraintSet constraints_;
+};
+
+}  // namespace fuse

@@ -1,0 +1,42 @@
+// Temporal side of the estimator (DESIGN §1, D_in for IMU and Φ_k): checks each IMU sample,
+// runs static initialisation, then propagates into the StateHistory. The single-process
+// Estimator and the fuse-state service both own one.
+#pragma once
+
+#include "fuse/core/counters.hpp"
+#include "fuse/core/types.hpp"
+#include "fuse/estimation/estimator_config.hpp"
+#include "fuse/estimation/state_history.hpp"
+#include "fuse/estimation/static_initializer.hpp"
+
+namespace fuse {
+
+class StateTracker {
+ public:
+  explicit StateTracker(const EstimatorConfig& config);
+
+  /// D_in: refuses non-finite or non-increasing samples (counted), flags gaps, initialises from
+  /// a static start, then propagates.
+  void ingest(const ImuSample& imu);
+  /// Starts the history from a posterior held elsewhere (a restarted fuse-state recovering the
+  /// last correction); `held` is the IMU measurement in force at t.
+  void restore(double t, const NavState& x, const StateCovariance& P, const ImuSample& held);
+
+  bool initialised() const { return history_.initialised(); }
+  StateHistory& history() { return history_; }
+  const StateHistory& history() const { return history_; }
+  double last_imu_time() const { return last_imu_t_; }
+  Counters& counters() { return counters_; }
+  const Counters& counters() const { return counters_; }
+
+ private:
+  void initialise(const NavState& x0, const ImuSample& imu);
+
+  EstimatorConfig config_;
+  StaticInitializer initializer_;
+  StateHistory history_;
+  double last_imu_t_ = -1.0;
+  Counters counters_;
+};
+
+}  // namespace fuse

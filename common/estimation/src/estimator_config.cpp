@@ -1,0 +1,68 @@
+#include "fuse/estimation/estimator_config.hpp"
+
+#include <cmath>
+
+namespace fuse {
+
+void PreprocessConfig::load(ConfigNode& node) {
+  node.get("min_range", min_range).get("max_range", max_range).get("voxel_size", voxel_size).get("deskew", deskew);
+  node.get("max_points", max_points);
+  node.check(max_points >= 100, "max_points", "must be at least 100");
+  node.check(min_range >= 0.0, "min_range", "must be >= 0");
+  node.check(max_range > min_range, "max_range", "must be greater than min_range");
+  node.check(voxel_size >= 0.01 && voxel_size <= 5.0, "voxel_size", "must be in [0.01, 5] m");
+  node.finish();
+}
+
+void InitialCovarianceConfig::load(ConfigNode& node) {
+  node.get("position_std", position_std).get("roll_pitch_std", roll_pitch_std).get("yaw_std", yaw_std);
+  node.get("velocity_std", velocity_std).get("gyro_bias_std", gyro_bias_std).get("accel_bias_std", accel_bias_std);
+  node.get("extrinsic_rotation_std", extrinsic_rotation_std).get("extrinsic_translation_std", extrinsic_translation_std);
+  node.get("gravity_std", gravity_std);
+  for (double v : {position_std, roll_pitch_std, yaw_std, velocity_std, gyro_bias_std, accel_bias_std,
+                   extrinsic_rotation_std, extrinsic_translation_std, gravity_std}) {
+    node.check(std::isfinite(v) && v > 0.0, "*_std", "every standard deviation must be positive and finite");
+  }
+  node.finish();
+}
+
+void DivergenceConfig::load(ConfigNode& node) {
+  node.get("max_position_std", max_position_std).get("max_scans_without_constraints", max_scans_without_constraints);
+  node.get("max_imu_gap", max_imu_gap);
+  node.check(max_position_std > 0.0, "max_position_std", "must be positive");
+  node.check(max_scans_without_constraints >= 1, "max_scans_without_constraints", "must be >= 1");
+  node.check(max_imu_gap > 0.0, "max_imu_gap", "must be positive");
+  node.finish();
+}
+
+void EstimatorConfig::load(ConfigNode& node) {
+  node.get("gravity_magnitude", gravity_magnitude).get("estimate_extrinsic", estimate_extrinsic);
+  node.get("estimate_gravity", estimate_gravity);
+  node.check(gravity_magnitude > 9.0 && gravity_magnitude < 10.5, "gravity_magnitude", "must be in (9, 10.5) m/s^2");
+  {
+    auto ext = node.child("extrinsic");
+    Eigen::Vector3d t = T_imu_lidar.translation();
+    Eigen::Quaterniond q0(T_imu_lidar.linear());
+    Eigen::Vector4d q(q0.x(), q0.y(), q0.z(), q0.w());
+    ext.get("translation", t).get("rotation_xyzw", q);
+    ext.check(std::abs(q.norm() - 1.0) < 1e-3, "rotation_xyzw", "must be a unit quaternion (x, y, z, w)");
+    ext.finish();
+    T_imu_lidar.setIdentity();
+    T_imu_lidar.linear() = Eigen::Quaterniond(q(3), q(0), q(1), q(2)).normalized().toRotationMatrix();
+    T_imu_lidar.translation() = t;
+  }
+  load_section(node, "init", init);
+  load_section(node, "imu_noise", imu);
+  load_section(node, "history", history);
+  load_section(node, "preprocess", preprocess);
+  load_section(node, "association", association);
+  load_section(node, "measurement", measurement);
+  load_section(node, "update", update);
+  load_section(node, "spatial_index", index);
+  load_section(node, "map", map);
+  load_section(node, "initial_covariance", initial_covariance);
+  load_section(node, "divergence", divergence);
+  node.finish();
+}
+
+}  // namespace fuse

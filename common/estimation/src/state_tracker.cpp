@@ -1,0 +1,60 @@
+#include "fuse/estimation/state_tracker.hpp"
+
+#include <cmath>
+
+#include "fuse/core/logging.hpp"
+
+namespace fuse {
+
+StateTracker::StateTracker(const EstimatorConfig& config)
+    : config_(config), initializer_(config.init), history_(config.history, config.imu), counters_(logger("estimator")) {}
+
+void StateTracker::ingest(const ImuSample& imu) {
+  if (!imu.gyro.allFinite() || !imu.accel.allFinite() || !std::isfinite(imu.t)) {
+    counters_.count("imu_not_finite", "IMU sample with a non-finite value refused");
+    return;
+  }
+  if (last_imu_t_ >= 0.0 && imu.t <= last_imu_t_) {
+    counters_.count("imu_time_not_increasing", "IMU sample at t=" + std::to_string(imu.t) + " not after the previous one, refused");
+    return;
+  }
+  if (last_imu_t_ >= 0.0 && imu.t - last_imu_t_ > config_.divergence.max_imu_gap) {
+    counters_.count("imu_gap", "IMU data gap of " + std::to_string(imu.t - last_imu_t_) + " s before t=" + std::to_string(imu.t));
+  }
+  last_imu_t_ = imu.t;
+  if (!history_.initialised()) {
+    if (auto x0 = initializer_.add(imu, config_.gravity_magnitude)) initialise(*x0, imu);
+    return;
+  }
+  history_.add_imu(imu);
+}
+
+void StateTracker::initialise(const NavState& x0_in, const ImuSample& imu) {
+  NavState x0 = x0_in;
+  x0.R_IL = config_.T_imu_lidar.linear();
+  x0.p_IL = config_.T_imu_lidar.translation();
+  const auto& c = config_.initial_covariance;
+  StateCovariance P = StateCovariance::Zero();
+  auto set = [&P](int idx, int n, double std) { P.block(idx, idx, n, n) = Eigen::MatrixXd::Identity(n, n) * std * std; };
+  set(Idx::kPos, 3, c.position_std);
+  P.block<3, 3>(Idx::kRot, Idx::kRot) = Eigen::Vector3d(c.roll_pitch_std * c.roll_pitch_std, c.roll_pitch_std * c.roll_pitch_std,
+                                                        c.yaw_std * c.yaw_std).asDiagonal();
+  set(Idx::kVel, 3, c.velocity_std);
+  set(Idx::kBg, 3, c.gyro_bias_std);
+  set(Idx::kBa, 3, c.accel_bias_std);
+  if (config_.estimate_extrinsic) {
+    set(Idx::kExtRot, 3, c.extrinsic_rotation_std);
+    set(Idx::kExtPos, 3, c.extrinsic_translation_std);
+  }
+  if (config_.estimate_gravity) set(Idx::kGrav, 2, c.gravity_std);
+  history_.reset(imu.t, x0, P, imu);
+  logger("estimator")->info("initialised at t={:.3f}: gyro bias [{:.5f} {:.5f} {:.5f}] rad/s after {} restarts", imu.t,
+                            x0.bg.x(), x0.bg.y(), x0.bg.z(), initializer_.restarts());
+}
+
+void StateTracker::restore(double t, const NavState& x, const StateCovariance& P, const ImuSample& held) {
+  history_.reset(t, x, P, held);
+  last_imu_t_ = std::max(last_imu_t_, t);
+}
+
+}  // namespace fuse
