@@ -1,0 +1,201 @@
+// fuse::query::Client against a stand-in query server (DDS domain 40): every field of a known
+// estimate, the statuses, typed errors, client-side rejection of invalid times, the deadline
+// with no server (domain 41), option checks and concurrent calls.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <thread>
+
+#include "fuse/query/client.hpp"
+#include "query_server.hpp"
+#include "test_helpers.hpp"
+
+namespace fuse::query {
+namespace {
+
+namespace qt = test::query_times;
+constexpr int kServerDomain = 40;
+constexpr int kEmptyDomain = 41;
+
+ClientOptions options(int domain, int deadline_ms = 5000) {
+  ClientOptions o;
+  o.domain_id = domain;
+  o.deadline_ms = deadline_ms;
+  return o;
+}
+
+void expect_known(const Estimate& e, double t) {
+  const auto msg = test::known_estimate(t, fuse_msgs::STATUS_INTERPOLATED);
+  EXPECT_EQ(e.t, t);
+  EXPECT_EQ(e.position, (std::array<double, 3>{t + 1.0, -2.5, 0.125}));
+  EXPECT_EQ(e.orientation_xyzw, (std::array<double, 4>{0.0, 0.0, std::sin(0.25), std::cos(0.25)}));
+  EXPECT_EQ(e.velocity, (std::array<double, 3>{0.5, -0.25, t / 1000.0}));
+  EXPECT_EQ(e.pose_covariance, msg.pose_covariance());
+  EXPECT_EQ(e.velocity_covariance, msg.velocity_covariance());
+}
+
+class QueryClient : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { server_ = new test::FakeQueryServer(kServerDomain); }
+  static void TearDownTestSuite() {
+    delete server_;
+    server_ = nullptr;
+  }
+  static test::FakeQueryServer* server_;
+};
+test::FakeQueryServer* QueryClient::server_ = nullptr;
+
+TEST_F(QueryClient, AnswersAKnownEstimateFieldByField) {
+  Client client(options(kServerDomain));
+  ASSERT_TRUE(client.wait_for_server(10000));
+  const Result r = client.at(qt::kInterpolated);
+  ASSERT_EQ(r.error, Error::ok) << r.message;
+  EXPECT_TRUE(r.ok());
+  EXPECT_EQ(r.estimate.status, Status::interpolated);
+  expect_known(r.estimate, qt::kInterpolated);
+}
+
+TEST_F(QueryClient, LatestAsksForTheNewestEstimate) {
+  Client client(options(kServerDomain));
+  const Result r = client.latest();
+  ASSERT_EQ(r.error, Error::ok) << r.message;
+  EXPECT_EQ(r.estimate.status, Status::propagated);
+  expect_known(r.estimate, qt::kLatest);
+}
+
+TEST_F(QueryClient, MapsEveryStatus) {
+  Client client(options(kServerDomain));
+  const std::pair<double, Status> cases[] = {{qt::kCorrected, Status::interpolated},
+                                             {qt::kTooOld, Status::too_old},
+                                             {qt::kInFuture, Status::in_future},
+                                             {qt::kNotInitialised, Status::not_initialised},
+                                             {150.0, Status::interpolated}};
+  for (const auto& [t, status] : cases) {
+    const Result r = client.at(t);
+    ASSERT_EQ(r.error, Error::ok) << "t = " << t << ": " << r.message;
+    EXPECT_EQ(r.estimate.status, status) << "t = " << t << ": " << to_string(r.estimate.status);
+    EXPECT_EQ(r.estimate.t, t);
+  }
+}
+
+TEST_F(QueryClient, ReturnsTheServersTypedErrors) {
+  Client client(options(kServerDomain));
+  Result r = client.at(qt::kNotReady);
+  EXPECT_EQ(r.error, Error::not_ready);
+  EXPECT_EQ(r.message, "IMU does not cover t yet");
+  r = client.at(qt::kThrows);
+  EXPECT_EQ(r.error, Error::internal);
+  EXPECT_NE(r.message.find("boom in the handler"), std::string::npos) << r.message;
+  r = client.at(qt::kServerRefuses);
+  EXPECT_EQ(r.error, Error::bad_request);
+  EXPECT_EQ(r.message, "refused by the server");
+  EXPECT_FALSE(r.ok());
+}
+
+TEST_F(QueryClient, RejectsInvalidTimesWithoutSendingThem) {
+  Client client(options(kServerDomain));
+  ASSERT_TRUE(client.wait_for_server(10000));
+  const double invalid[] = {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity(),
+                            -std::numeric_limits<double>::infinity(), -1.0, -1e-9, 1e11, kMaxQueryTime * 2.0,
+                            std::numeric_limits<double>::max()};
+  for (const double t : invalid) {
+    const auto start = std::chrono::steady_clock::now();
+    const Result r = client.at(t);
+    EXPECT_EQ(r.error, Error::bad_request) << "t = " << t;
+    EXPECT_FALSE(r.message.empty());
+    EXPECT_LT(test::seconds_since(start), 0.05) << "answered without a round trip";
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // a sent request would have arrived
+  EXPECT_EQ(server_->invalid_requests(), 0) << "nothing was sent";
+  EXPECT_EQ(client.at(kMaxQueryTime).error, Error::ok) << "the bound itself is accepted";
+}
+
+TEST_F(QueryClient, ConcurrentCallsEachGetTheirOwnReply) {
+  Client client(options(kServerDomain));
+  ASSERT_TRUE(client.wait_for_server(10000));
+  std::atomic<int> wrong{0};
+  std::vector<std::thread> threads;
+  for (int k = 0; k < 4; ++k) {
+    threads.emplace_back([&, k] {
+      for (int i = 0; i < 10; ++i) {
+        const double t = 1000.0 + 100 * k + i;
+        const Result r = client.at(t);
+        if (!r.ok() || r.estimate.t != t || r.estimate.position[0] != t + 1.0) ++wrong;
+      }
+    });
+  }
+  for (auto& th : threads) th.join();
+  EXPECT_EQ(wrong, 0);
+}
+
+TEST_F(QueryClient, AMovedClientKeepsWorking) {
+  Client first(options(kServerDomain));
+  Client second = std::move(first);
+  EXPECT_EQ(second.options().domain_id, kServerDomain);
+  EXPECT_EQ(second.at(qt::kInterpolated).error, Error::ok);
+}
+
+TEST(QueryClientAlone, NoServerGivesUnavailableAtTheDeadline) {
+  Client client(options(kEmptyDomain, 300));
+  auto start = std::chrono::steady_clock::now();
+  EXPECT_FALSE(client.wait_for_server(200));
+  EXPECT_GE(test::seconds_since(start), 0.2);
+  start = std::chrono::steady_clock::now();
+  const Result r = client.at(10.0);
+  const double elapsed = test::seconds_since(start);
+  EXPECT_EQ(r.error, Error::unavailable);
+  EXPECT_FALSE(r.message.empty());
+  EXPECT_GE(elapsed, 0.3);
+  EXPECT_LT(elapsed, 2.0);
+  EXPECT_EQ(client.latest().error, Error::unavailable);
+  EXPECT_EQ(client.at(std::nan("")).error, Error::bad_request) << "validation comes before the deadline";
+}
+
+TEST(QueryClientAlone, RefusesBadOptions) {
+  auto make = [](auto change) {
+    ClientOptions o = options(kEmptyDomain);
+    change(o);
+    Client c(o);
+  };
+  EXPECT_THROW(make([](ClientOptions& o) { o.vendor = "opendds"; }), std::invalid_argument);
+  EXPECT_THROW(make([](ClientOptions& o) { o.domain_id = -1; }), std::invalid_argument);
+  EXPECT_THROW(make([](ClientOptions& o) { o.domain_id = 102; }), std::invalid_argument);
+  EXPECT_THROW(make([](ClientOptions& o) { o.deadline_ms = 0; }), std::invalid_argument);
+  EXPECT_THROW(make([](ClientOptions& o) { o.max_participants = 2; }), std::invalid_argument);
+  EXPECT_THROW(make([](ClientOptions& o) { o.socket_buffer_bytes = 1024; }), std::invalid_argument);
+}
+
+TEST(QueryClientAlone, NamesErrorsAndStatuses) {
+  EXPECT_STREQ(to_string(Error::ok), "ok");
+  EXPECT_STREQ(to_string(Error::bad_request), "bad_request");
+  EXPECT_STREQ(to_string(Error::not_ready), "not_ready");
+  EXPECT_STREQ(to_string(Error::unavailable), "unavailable");
+  EXPECT_STREQ(to_string(Error::internal), "internal");
+  EXPECT_STREQ(to_string(Status::interpolated), "interpolated");
+  EXPECT_STREQ(to_string(Status::propagated), "propagated");
+  EXPECT_STREQ(to_string(Status::too_old), "too_old");
+  EXPECT_STREQ(to_string(Status::in_future), "in_future");
+  EXPECT_STREQ(to_string(Status::not_initialised), "not_initialised");
+}
+
+/// The client on Cyclone DDS against the Fast DDS server (skipped while that backend is absent).
+TEST(QueryClientCrossVendor, CycloneClientAsksAFastDdsServer) {
+  constexpr int kDomain = 46;
+  test::FakeQueryServer server(kDomain);
+  ClientOptions o = options(kDomain);
+  o.vendor = "cyclonedds";
+  std::unique_ptr<Client> client;
+  try {
+    client = std::make_unique<Client>(o);
+  } catch (const std::runtime_error& e) {
+    GTEST_SKIP() << "Cyclone DDS backend unavailable: " << e.what();
+  }
+  ASSERT_TRUE(client->wait_for_server(10000));
+  const Result r = client->at(qt::kInterpolated);
+  ASSERT_EQ(r.error, Error::ok) << r.message;
+  expect_known(r.estimate, qt::kInterpolated);
+}
+
+}  // namespace
+}  // namespace fuse::query

@@ -1,0 +1,69 @@
+// fuse-query: asks the running estimator for the state at a time.
+//
+//   fuse-query [--time T | --latest] [--json] [--deadline-ms N] [--config FILE] [--set key=value]...
+//
+// Prints the pose, velocity, covariance diagonals, time and status (or one JSON object).
+// Exit codes: 0 answered (any status), 2 usage or config, 3 error reply, 4 unavailable.
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "arguments.hpp"
+#include "client_config.hpp"
+#include "fuse/query/client.hpp"
+#include "output.hpp"
+
+namespace {
+constexpr int kExitAnswered = 0, kExitUsage = 2, kExitErrorReply = 3, kExitUnavailable = 4;
+
+int exit_code(fuse::query::Error error) {
+  switch (error) {
+    case fuse::query::Error::ok: return kExitAnswered;
+    case fuse::query::Error::unavailable: return kExitUnavailable;
+    default: return kExitErrorReply;
+  }
+}
+
+void print(const fuse::query::Result& result, bool json) {
+  if (json) {
+    std::cout << fuse::query_tool::format_json(result);
+  } else if (result.ok()) {
+    std::cout << fuse::query_tool::format_text(result);
+  } else {
+    std::cerr << "fuse-query: " << fuse::query::to_string(result.error) << ": " << result.message << "\n";
+  }
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace fuse::query_tool;
+  Arguments args;
+  fuse::query::ClientOptions options;
+  try {
+    args = parse_arguments(std::vector<std::string>(argv + 1, argv + argc));
+    if (args.help) {
+      std::cout << usage();
+      return kExitAnswered;
+    }
+    options = load_client_options(args.config_file, args.overrides);
+    options.deadline_ms = args.deadline_ms;
+  } catch (const ArgumentError& e) {
+    std::cerr << "fuse-query: " << e.what() << "\n" << usage();
+    return kExitUsage;
+  } catch (const std::exception& e) {
+    std::cerr << "fuse-query: config error: " << e.what() << "\n";
+    return kExitUsage;
+  }
+  try {
+    fuse::query::Client client(options);
+    const fuse::query::Result result = args.latest ? client.latest() : client.at(args.time);
+    print(result, args.json);
+    return exit_code(result.error);
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "fuse-query: config error: " << e.what() << "\n";
+    return kExitUsage;
+  } catch (const std::exception& e) {
+    std::cerr << "fuse-query: transport: " << e.what() << "\n";
+    return kExitUnavailable;
+  }
+}

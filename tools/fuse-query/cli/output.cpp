@@ -1,0 +1,83 @@
+#include "output.hpp"
+
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+namespace fuse::query_tool {
+
+namespace {
+/// Shortest text that reads back to the same double ("inf", "nan" when not finite).
+std::string number(double v) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof(buf), v);
+  return std::string(buf, r.ptr);
+}
+
+/// A JSON number; JSON has no NaN or infinity, so those are null.
+std::string json_number(double v) { return std::isfinite(v) ? number(v) : "null"; }
+
+template <std::size_t N>
+std::vector<double> diagonal(const std::array<double, N * N>& m) {
+  std::vector<double> d(N);
+  for (std::size_t i = 0; i < N; ++i) d[i] = m[i * N + i];
+  return d;
+}
+
+template <class Values>
+std::string text_list(const Values& values) {
+  std::string s;
+  for (double v : values) s += (s.empty() ? "" : " ") + number(v);
+  return s;
+}
+
+template <class Values>
+std::string json_list(const Values& values) {
+  std::string s = "[";
+  for (double v : values) s += (s.size() > 1 ? "," : "") + json_number(v);
+  return s + "]";
+}
+
+std::string json_string(const std::string& text) {
+  std::string s = "\"";
+  for (const char c : text) {
+    if (c == '"' || c == '\\') {
+      s += '\\';
+      s += c;
+    } else if (static_cast<unsigned char>(c) < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof(buf), "\\u%04x", c);
+      s += buf;
+    } else {
+      s += c;
+    }
+  }
+  return s + "\"";
+}
+}  // namespace
+
+std::string format_text(const query::Result& r) {
+  const query::Estimate& e = r.estimate;
+  return "t: " + number(e.t) + "\nstatus: " + query::to_string(e.status) + "\nposition: " + text_list(e.position) +
+         "\norientation_xyzw: " + text_list(e.orientation_xyzw) + "\nvelocity: " + text_list(e.velocity) +
+         "\npose_covariance_diagonal: " + text_list(diagonal<6>(e.pose_covariance)) +
+         "\nvelocity_covariance_diagonal: " + text_list(diagonal<3>(e.velocity_covariance)) + "\n";
+}
+
+std::string format_json(const query::Result& r) {
+  std::string s = "{\"error\":" + json_string(query::to_string(r.error)) + ",\"message\":" + json_string(r.message);
+  if (r.ok()) {
+    const query::Estimate& e = r.estimate;
+    s += ",\"t\":" + json_number(e.t) + ",\"status\":" + json_string(query::to_string(e.status)) +
+         ",\"position\":" + json_list(e.position) + ",\"orientation_xyzw\":" + json_list(e.orientation_xyzw) +
+         ",\"velocity\":" + json_list(e.velocity) +
+         ",\"pose_covariance_diagonal\":" + json_list(diagonal<6>(e.pose_covariance)) +
+         ",\"velocity_covariance_diagonal\":" + json_list(diagonal<3>(e.velocity_covariance)) +
+         ",\"pose_covariance\":" + json_list(e.pose_covariance) +
+         ",\"velocity_covariance\":" + json_list(e.velocity_covariance);
+  }
+  return s + "}\n";
+}
+
+}  // namespace fuse::query_tool

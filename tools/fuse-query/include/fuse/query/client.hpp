@@ -1,0 +1,108 @@
+// FUSE query client: asks the running estimator (fuse-state's `query` service) for the state
+// at a time. This header is the whole installed API of the fuse_query library and includes only
+// the standard library: no DDS, Fast CDR, Eigen or generated wire types reach the caller.
+//
+//   fuse::query::ClientOptions options;
+//   options.domain_id = 7;
+//   fuse::query::Client client(options);
+//   client.wait_for_server(2000);
+//   const fuse::query::Result r = client.at(t);
+//   if (r.error == fuse::query::Error::ok) use(r.estimate.position, r.estimate.status);
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <memory>
+#include <string>
+
+#if defined(__GNUC__)
+#define FUSE_QUERY_API __attribute__((visibility("default")))
+#else
+#define FUSE_QUERY_API
+#endif
+
+namespace fuse::query {
+
+/// How to reach the estimator: the same transport settings as the services' `transport:`
+/// config section, plus the reply deadline.
+struct ClientOptions {
+  std::string vendor = "fastdds";  ///< fastdds | cyclonedds
+  int domain_id = 0;               ///< DDS domain, 0..101
+  int deadline_ms = 1000;          ///< per call: no reply by then gives Error::unavailable
+  bool loopback_only = true;       ///< discovery by unicast on 127.0.0.1 only
+  int max_participants = 32;       ///< participants reachable on loopback, 4..120
+  bool shared_memory = false;      ///< Fast DDS shared-memory transport
+  std::size_t socket_buffer_bytes = 4u << 20;  ///< UDP send/receive buffers
+  std::string participant_name = "fuse-query";
+};
+
+enum class Error {
+  ok,
+  bad_request,  ///< the request is invalid (non-finite, negative or absurd time); not sent
+  not_ready,    ///< valid, but the estimator cannot answer yet
+  unavailable,  ///< no reply before the deadline (no server, or it is busy)
+  internal,     ///< the server failed while answering
+};
+
+enum class Status {
+  not_initialised,  ///< the estimator has no state yet
+  interpolated,     ///< t lies in the history, up to (and at) the last LiDAR correction
+  propagated,       ///< t lies past the last correction: IMU propagation only
+  too_old,          ///< t is older than the history holds
+  in_future,        ///< t is newer than the latest IMU sample
+};
+
+/// The state of the IMU body in the world frame at time t.
+struct Estimate {
+  double t = 0.0;                                ///< seconds, sensor clock
+  std::array<double, 3> position{};              ///< metres, world frame
+  std::array<double, 4> orientation_xyzw{0.0, 0.0, 0.0, 1.0};  ///< rotation world <- IMU
+  std::array<double, 3> velocity{};              ///< m/s, world frame
+  /// Row-major 6x6: position (x, y, z) then rotation (rx, ry, rz) as a right perturbation.
+  std::array<double, 36> pose_covariance{};
+  std::array<double, 9> velocity_covariance{};   ///< row-major 3x3, world frame
+  Status status = Status::not_initialised;
+};
+
+struct Result {
+  Error error = Error::unavailable;
+  std::string message;  ///< why, when error != ok
+  Estimate estimate;    ///< meaningful when error == ok
+  bool ok() const { return error == Error::ok; }
+};
+
+/// A connection to the query service. Calls are thread-safe and block at most deadline_ms.
+/// A moved-from Client may only be destroyed or assigned to.
+class FUSE_QUERY_API Client {
+ public:
+  /// Joins the DDS domain. Throws std::invalid_argument on bad options (unknown vendor, domain
+  /// outside 0..101, deadline <= 0, max_participants outside 4..120, socket buffers outside
+  /// 64 KiB..256 MiB) and std::runtime_error when the transport cannot start.
+  explicit Client(const ClientOptions& options = {});
+  ~Client();
+  Client(Client&&) noexcept;
+  Client& operator=(Client&&) noexcept;
+  Client(const Client&) = delete;
+  Client& operator=(const Client&) = delete;
+
+  /// The estimate at time t (seconds, sensor clock).
+  Result at(double t);
+  /// The newest estimate the server holds.
+  Result latest();
+  /// Waits until a query server is matched; false when none appeared within timeout_ms.
+  bool wait_for_server(int timeout_ms);
+
+  const ClientOptions& options() const;
+
+ private:
+  class Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Largest time accepted (seconds, about the year 2286): later times are refused as absurd.
+inline constexpr double kMaxQueryTime = 1e10;
+
+FUSE_QUERY_API const char* to_string(Error error);
+FUSE_QUERY_API const char* to_string(Status status);
+
+}  // namespace fuse::query

@@ -1,0 +1,118 @@
+// Client: the public query API over the transport's typed request/reply (PIMPL keeps every DDS
+// and generated type out of the installed header).
+#include "fuse/query/client.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <stdexcept>
+
+#include "fuse/transport/rpc.hpp"
+#include "time_check.hpp"
+#include "wire_conversion.hpp"
+
+namespace fuse::query {
+
+namespace {
+using QueryRpc = transport::RpcClient<fuse_msgs::QueryRequest, fuse_msgs::QueryReply>;
+
+/// The options, unless they are out of range (std::invalid_argument then).
+const ClientOptions& checked(const ClientOptions& o) {
+  if (o.vendor != "fastdds" && o.vendor != "cyclonedds") {
+    throw std::invalid_argument("vendor '" + o.vendor + "' is not fastdds or cyclonedds");
+  }
+  if (o.domain_id < 0 || o.domain_id > 101) {
+    throw std::invalid_argument("domain_id " + std::to_string(o.domain_id) + " is outside 0..101");
+  }
+  if (o.deadline_ms <= 0) throw std::invalid_argument("deadline_ms must be positive");
+  // The transport config's bounds (transport: section).
+  if (o.max_participants < 4 || o.max_participants > 120) {
+    throw std::invalid_argument("max_participants must be in [4, 120]");
+  }
+  if (o.socket_buffer_bytes < (64u << 10) || o.socket_buffer_bytes > (256u << 20)) {
+    throw std::invalid_argument("socket_buffer_bytes must be in [64 KiB, 256 MiB]");
+  }
+  return o;
+}
+
+transport::TransportConfig transport_config(const ClientOptions& o) {
+  transport::TransportConfig c;
+  c.vendor = o.vendor;
+  c.domain_id = o.domain_id;
+  c.loopback_only = o.loopback_only;
+  c.max_participants = o.max_participants;
+  c.shared_memory = o.shared_memory;
+  c.socket_buffer_bytes = o.socket_buffer_bytes;
+  return c;
+}
+}  // namespace
+
+class Client::Impl {
+ public:
+  explicit Impl(const ClientOptions& options)
+      : options_(checked(options)),
+        participant_(transport::make_participant(transport_config(options_), options_.participant_name)),
+        rpc_(*participant_, transport::services::kQuery) {}
+
+  Result call(fuse_msgs::QueryRequest request) {
+    const auto r = rpc_.call(std::move(request), std::chrono::milliseconds(options_.deadline_ms));
+    return to_result(r.status, r.message, r.reply);
+  }
+
+  bool wait_for_server(int timeout_ms) const {
+    return rpc_.wait_for_server(std::chrono::milliseconds(std::max(timeout_ms, 0)));
+  }
+
+  const ClientOptions& options() const { return options_; }
+
+ private:
+  ClientOptions options_;
+  std::unique_ptr<transport::Participant> participant_;  // outlives rpc_ (declared first)
+  QueryRpc rpc_;
+};
+
+Client::Client(const ClientOptions& options) : impl_(std::make_unique<Impl>(options)) {}
+Client::~Client() = default;
+Client::Client(Client&&) noexcept = default;
+Client& Client::operator=(Client&&) noexcept = default;
+
+Result Client::at(double t) {
+  if (std::string why = check_query_time(t); !why.empty()) return Result{Error::bad_request, why, {}};
+  fuse_msgs::QueryRequest request;
+  request.t(t);
+  request.latest(false);
+  return impl_->call(request);
+}
+
+Result Client::latest() {
+  fuse_msgs::QueryRequest request;
+  request.latest(true);
+  return impl_->call(request);
+}
+
+bool Client::wait_for_server(int timeout_ms) { return impl_->wait_for_server(timeout_ms); }
+
+const ClientOptions& Client::options() const { return impl_->options(); }
+
+const char* to_string(Error error) {
+  switch (error) {
+    case Error::ok: return "ok";
+    case Error::bad_request: return "bad_request";
+    case Error::not_ready: return "not_ready";
+    case Error::unavailable: return "unavailable";
+    case Error::internal: return "internal";
+  }
+  return "unknown";
+}
+
+const char* to_string(Status status) {
+  switch (status) {
+    case Status::not_initialised: return "not_initialised";
+    case Status::interpolated: return "interpolated";
+    case Status::propagated: return "propagated";
+    case Status::too_old: return "too_old";
+    case Status::in_future: return "in_future";
+  }
+  return "unknown";
+}
+
+}  // namespace fuse::query

@@ -1,0 +1,18 @@
+// Conversion between the query service's wire types (fuse_msgs) and the client's public types.
+#pragma once
+
+#include <string>
+
+#include "fuse/query/client.hpp"
+#include "fuse_msgs.h"
+
+namespace fuse::query {
+
+Error to_error(fuse_msgs::RpcStatus status);
+Status to_status(fuse_msgs::EstimateStatus status);
+Estimate to_estimate(const fuse_msgs::StateEstimate& msg);
+
+/// The result of one call: the RPC status and message, and the estimate when the call succeeded.
+Result to_result(fuse_msgs::RpcStatus status, const std::string& message, const fuse_msgs::QueryReply& reply);
+
+}  // namespace fuse::query
