@@ -57,6 +57,8 @@ class LidarUpdater {
   const Eigen::Isometry3d& last_T_world_lidar() const { return T_WL_; }
 
   SpatialIndex& map() { return *map_; }
+  /// Starts over with an empty map (a replica about to be rebuilt from the map server).
+  void reset_map() { map_ = make_spatial_index(config_.index); }
   const SpatialIndex& map() const { return *map_; }
   /// Replaces the map policy at run time (mapping | localization).
   void set_map_mode(const std::string& mode);

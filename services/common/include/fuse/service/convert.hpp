@@ -1,0 +1,51 @@
+// Conversions between the wire types (fuse_msgs, generated) and the estimator's types. Only the
+// services include this: the libraries never see a DDS type. Every conversion from the wire
+// checks what arrived and says what was wrong (InvalidSample).
+#pragma once
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "fuse/core/types.hpp"
+#include "fuse/estimation/state_history.hpp"
+#include "fuse_msgs.h"
+
+namespace fuse::service {
+
+/// A sample that decoded but whose contents are unusable (NaN, bad sizes, bad times).
+class InvalidSample : public std::runtime_error {
+ public:
+  InvalidSample(std::string reason, const std::string& what) : std::runtime_error(what), reason_(std::move(reason)) {}
+  const std::string& reason() const { return reason_; }  ///< counter name
+
+ private:
+  std::string reason_;
+};
+
+fuse_msgs::ImuSample to_msg(const ImuSample& imu, const std::string& frame);
+ImuSample from_msg(const fuse_msgs::ImuSample& msg);  ///< throws InvalidSample
+
+fuse_msgs::LidarScan to_msg(const LidarScan& scan, const std::string& frame);
+LidarScan from_msg(const fuse_msgs::LidarScan& msg);  ///< throws InvalidSample
+
+/// The posterior at a scan end, with the full error-state covariance.
+struct Posterior {
+  double t = 0.0;
+  std::uint64_t scan_sequence = 0;
+  NavState x;
+  StateCovariance P = StateCovariance::Zero();
+};
+fuse_msgs::Correction to_msg(const Posterior& posterior);
+Posterior from_msg(const fuse_msgs::Correction& msg);  ///< throws InvalidSample
+
+fuse_msgs::HistoryEntry to_msg(const StateHistory::Entry& e);
+StateHistory::Entry from_msg(const fuse_msgs::HistoryEntry& msg);  ///< P zero; throws InvalidSample
+
+/// A state query as the planners' estimate (pose covariance: position and rotation blocks).
+fuse_msgs::StateEstimate to_estimate(const StateQuery& q, std::uint64_t sequence);
+
+fuse_msgs::Pose to_pose(const Eigen::Vector3d& p, const Eigen::Matrix3d& R);
+Eigen::Isometry3d from_pose(const fuse_msgs::Pose& pose);  ///< throws InvalidSample
+
+}  // namespace fuse::service

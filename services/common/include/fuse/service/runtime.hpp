@@ -1,0 +1,43 @@
+// What every service main shares: the command line (--config FILE, --set key=value, and the
+// service's own options), the validated system config, logging, and shutdown on SIGINT/SIGTERM.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "fuse/service/system_config.hpp"
+#include "fuse/transport/transport.hpp"
+
+namespace fuse::service {
+
+struct ServiceArgs {
+  std::string config_file;
+  std::vector<std::string> overrides;
+  std::map<std::string, std::string> options;  ///< the service's own --name value options
+  std::string log_level = "info";
+  std::string get(const std::string& name, const std::string& fallback = "") const {
+    auto it = options.find(name);
+    return it == options.end() ? fallback : it->second;
+  }
+};
+
+/// Parses argv; `allowed` lists the service's own options (without "--"). Throws
+/// std::invalid_argument naming the bad argument.
+ServiceArgs parse_args(int argc, char** argv, const std::set<std::string>& allowed);
+
+/// Blocks SIGINT/SIGTERM in every thread (call first in main, before any thread starts);
+/// stop_requested() turns true once one arrives.
+void install_signal_handling();
+bool stop_requested();
+/// Sleeps up to `seconds`, returning early (true) when a stop was requested.
+bool wait_for_stop(double seconds);
+
+/// The usual main body: parse, load config, set up logging; on error prints the reason and
+/// returns the exit code (2 for usage/config) through `exit_code`.
+bool start_service(const std::string& name, int argc, char** argv, const std::set<std::string>& allowed,
+                   ServiceArgs& args, SystemConfig& config, int& exit_code);
+
+}  // namespace fuse::service

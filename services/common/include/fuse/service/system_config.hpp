@@ -1,0 +1,59 @@
+// The configuration of the multi-process system: one YAML file, one typed section per module.
+// Every service loads and validates the whole file (an unknown key or a bad value anywhere
+// stops it, naming the key) and uses its own sections.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "fuse/core/config.hpp"
+#include "fuse/estimation/estimator_config.hpp"
+#include "fuse/map/map_server_core.hpp"
+#include "fuse/transport/transport.hpp"
+
+namespace fuse::service {
+
+struct IngestConfig {
+  std::string mode = "lockstep";   ///< lockstep | realtime
+  double rate = 1.0;               ///< realtime: playback speed factor
+  double lockstep_timeout_s = 3.0; ///< lockstep: wait at most this long for a scan's correction
+  double start_wait_s = 10.0;      ///< wait this long for fuse-state and fuse-update to appear
+  void load(ConfigNode& node);
+};
+
+struct StateServiceConfig {
+  /// After a (re)start, wait this long for a transient-local correction before falling back to
+  /// static initialisation from the IMU.
+  double recovery_wait_s = 1.0;
+  double imu_buffer_s = 10.0;  ///< raw IMU kept for re-propagation after a recovered correction
+  void load(ConfigNode& node);
+};
+
+struct UpdateServiceConfig {
+  double history_deadline_s = 1.0;  ///< give up on a scan when fuse-state cannot cover it by then
+  double map_sync_timeout_s = 3.0;  ///< at start-up: wait this long for the map server's chunks
+  double resend_after_s = 1.0;      ///< re-send unacknowledged observations older than this
+  std::size_t max_unacked = 2000;   ///< observations kept for re-sending (oldest dropped, counted)
+  void load(ConfigNode& node);
+};
+
+struct HealthConfig {
+  double period_s = 0.5;
+  void load(ConfigNode& node);
+};
+
+struct SystemConfig {
+  EstimatorConfig estimator;
+  transport::TransportConfig transport;
+  IngestConfig ingest;
+  StateServiceConfig state;
+  UpdateServiceConfig update;
+  MapServerConfig map_server;
+  HealthConfig health;
+  void load(ConfigNode& root);
+};
+
+/// Reads and validates a config file with "dotted.key=value" overrides; throws ConfigError.
+SystemConfig load_system_config(const std::string& file, const std::vector<std::string>& overrides = {});
+
+}  // namespace fuse::service

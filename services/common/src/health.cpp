@@ -1,0 +1,55 @@
+#include "fuse/service/health.hpp"
+
+#include "fuse/transport/rpc.hpp"
+
+namespace fuse::service {
+
+HealthReporter::HealthReporter(transport::Participant& participant, std::string service, double period_s,
+                               std::function<HealthSnapshot()> snapshot)
+    : service_(std::move(service)),
+      instance_(transport::random_id()),
+      start_(std::chrono::steady_clock::now()),
+      period_(period_s),
+      snapshot_(std::move(snapshot)),
+      publisher_(participant, transport::topics::kHealth),
+      thread_([this] { run(); }) {}
+
+HealthReporter::~HealthReporter() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+  }
+  cv_.notify_all();
+  thread_.join();
+}
+
+void HealthReporter::publish_now() {
+  const HealthSnapshot s = snapshot_();
+  fuse_msgs::Health m;
+  m.service(service_.substr(0, 32));
+  m.instance(instance_);
+  m.sequence_number(++sequence_);
+  m.uptime_s(std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count());
+  m.state(s.state.substr(0, 32));
+  for (const auto& [name, value] : s.counters) {
+    if (m.counters().size() >= 128) break;
+    fuse_msgs::Counter c;
+    c.name(name.substr(0, 64));
+    c.value(value);
+    m.counters().push_back(c);
+  }
+  m.last_error(s.last_error.substr(0, 256));
+  publisher_.publish(m);
+}
+
+void HealthReporter::run() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (!stop_) {
+    lock.unlock();
+    publish_now();
+    lock.lock();
+    cv_.wait_for(lock, period_, [this] { return stop_; });
+  }
+}
+
+}  // namespace fuse::service

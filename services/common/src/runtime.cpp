@@ -1,0 +1,81 @@
+#include "fuse/service/runtime.hpp"
+
+#include <atomic>
+#include <csignal>
+#include <stdexcept>
+#include <thread>
+
+#include "fuse/core/logging.hpp"
+
+namespace fuse::service {
+
+namespace {
+std::atomic<bool> g_stop{false};
+}
+
+ServiceArgs parse_args(int argc, char** argv, const std::set<std::string>& allowed) {
+  ServiceArgs args;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a.rfind("--", 0) != 0) throw std::invalid_argument("unexpected argument '" + a + "'");
+    const std::string name = a.substr(2);
+    if (i + 1 >= argc) throw std::invalid_argument("option '" + a + "' needs a value");
+    const std::string value = argv[++i];
+    if (name == "config") {
+      args.config_file = value;
+    } else if (name == "set") {
+      args.overrides.push_back(value);
+    } else if (name == "log-level") {
+      args.log_level = value;
+    } else if (allowed.count(name)) {
+      args.options[name] = value;
+    } else {
+      throw std::invalid_argument("unknown option '" + a + "'");
+    }
+  }
+  if (args.config_file.empty()) throw std::invalid_argument("--config FILE is required");
+  return args;
+}
+
+void install_signal_handling() {
+  sigset_t set;
+  sigemptyset(&set);
+  sigaddset(&set, SIGINT);
+  sigaddset(&set, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &set, nullptr);
+  std::thread([set] {
+    int sig = 0;
+    sigwait(&set, &sig);
+    g_stop = true;
+  }).detach();
+}
+
+bool stop_requested() { return g_stop; }
+
+bool wait_for_stop(double seconds) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (std::chrono::steady_clock::now() < end) {
+    if (g_stop) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return g_stop;
+}
+
+bool start_service(const std::string& name, int argc, char** argv, const std::set<std::string>& allowed,
+                   ServiceArgs& args, SystemConfig& config, int& exit_code) {
+  install_signal_handling();
+  try {
+    args = parse_args(argc, argv, allowed);
+    set_log_level(args.log_level);
+    config = load_system_config(args.config_file, args.overrides);
+  } catch (const std::exception& e) {
+    logger(name)->error("{}", e.what());
+    exit_code = 2;
+    return false;
+  }
+  logger(name)->info("config {} loaded; transport {} domain {}", args.config_file, config.transport.vendor,
+                     config.transport.domain_id);
+  return true;
+}
+
+}  // namespace fuse::service

@@ -1,0 +1,57 @@
+#include "fuse/service/system_config.hpp"
+
+#include <cmath>
+
+namespace fuse::service {
+
+void IngestConfig::load(ConfigNode& node) {
+  node.get("mode", mode).get("rate", rate).get("lockstep_timeout_s", lockstep_timeout_s).get("start_wait_s", start_wait_s);
+  node.check(mode == "lockstep" || mode == "realtime", "mode", "must be lockstep or realtime");
+  node.check(std::isfinite(rate) && rate > 0.0 && rate <= 100.0, "rate", "must be in (0, 100]");
+  node.check(lockstep_timeout_s > 0.0 && lockstep_timeout_s <= 60.0, "lockstep_timeout_s", "must be in (0, 60] s");
+  node.check(start_wait_s >= 0.0 && start_wait_s <= 120.0, "start_wait_s", "must be in [0, 120] s");
+  node.finish();
+}
+
+void StateServiceConfig::load(ConfigNode& node) {
+  node.get("recovery_wait_s", recovery_wait_s).get("imu_buffer_s", imu_buffer_s);
+  node.check(recovery_wait_s >= 0.0 && recovery_wait_s <= 30.0, "recovery_wait_s", "must be in [0, 30] s");
+  node.check(imu_buffer_s >= 1.0 && imu_buffer_s <= 120.0, "imu_buffer_s", "must be in [1, 120] s");
+  node.finish();
+}
+
+void UpdateServiceConfig::load(ConfigNode& node) {
+  node.get("history_deadline_s", history_deadline_s).get("map_sync_timeout_s", map_sync_timeout_s);
+  node.get("resend_after_s", resend_after_s).get("max_unacked", max_unacked);
+  node.check(history_deadline_s > 0.0 && history_deadline_s <= 30.0, "history_deadline_s", "must be in (0, 30] s");
+  node.check(map_sync_timeout_s >= 0.0 && map_sync_timeout_s <= 60.0, "map_sync_timeout_s", "must be in [0, 60] s");
+  node.check(resend_after_s > 0.0 && resend_after_s <= 60.0, "resend_after_s", "must be in (0, 60] s");
+  node.check(max_unacked >= 10, "max_unacked", "must be at least 10");
+  node.finish();
+}
+
+void HealthConfig::load(ConfigNode& node) {
+  node.get("period_s", period_s);
+  node.check(period_s >= 0.05 && period_s <= 60.0, "period_s", "must be in [0.05, 60] s");
+  node.finish();
+}
+
+void SystemConfig::load(ConfigNode& root) {
+  load_section(root, "estimator", estimator);
+  load_section(root, "transport", transport);
+  load_section(root, "ingest", ingest);
+  load_section(root, "state", state);
+  load_section(root, "update", update);
+  load_section(root, "map_server", map_server);
+  load_section(root, "health", health);
+  root.finish();
+}
+
+SystemConfig load_system_config(const std::string& file, const std::vector<std::string>& overrides) {
+  ConfigNode node(load_yaml_file(file, overrides), "");
+  SystemConfig config;
+  config.load(node);
+  return config;
+}
+
+}  // namespace fuse::service

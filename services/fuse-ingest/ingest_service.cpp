@@ -1,0 +1,180 @@
+#include "ingest_service.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+#include "fuse/core/logging.hpp"
+#include "fuse/service/convert.hpp"
+#include "fuse/service/runtime.hpp"
+
+namespace fuse::service {
+
+namespace {
+constexpr const char* kName = "fuse-ingest";
+constexpr const char* kFrameImu = "imu";
+constexpr const char* kFrameLidar = "lidar";
+
+double unix_now() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+}  // namespace
+
+IngestService::IngestService(const SystemConfig& config, transport::Participant& participant, IngestOptions options)
+    : config_(config),
+      options_(std::move(options)),
+      source_(io::open_sensor_source(options_.input)),
+      counters_(logger(kName)),
+      imu_(participant, transport::topics::kImu),
+      scans_(participant, transport::topics::kLidarScan) {
+  correction_sub_ = std::make_unique<transport::Subscriber<fuse_msgs::Correction>>(
+      participant, transport::topics::kCorrection, [this](const fuse_msgs::Correction& c) {
+        {
+          std::lock_guard<std::mutex> lock(mutex_);
+          if (std::isfinite(c.t())) last_correction_t_ = std::max(last_correction_t_, c.t());
+          last_correction_sequence_ = c.scan_sequence();
+          have_correction_ = true;
+        }
+        cv_.notify_all();
+      });
+  health_sub_ = std::make_unique<transport::Subscriber<fuse_msgs::Health>>(
+      participant, transport::topics::kHealth, [this](const fuse_msgs::Health& h) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        service_states_[h.service().to_string()] = h.state().to_string();
+      });
+  health_ = std::make_unique<HealthReporter>(participant, kName, config.health.period_s, [this] { return health(); });
+  logger(kName)->info("replaying {} ({}{})", source_->describe(), options_.mode,
+                      options_.mode == "realtime" ? ", rate " + std::to_string(options_.rate) : "");
+}
+
+bool IngestService::wait_for_pipeline() {
+  // fuse-state must be past its recovery wait and fuse-update's replica synchronised, or the
+  // first scans would be skipped for reasons that have nothing to do with the data.
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(config_.ingest.start_wait_s);
+  auto ready = [this] {
+    auto s = service_states_.find("fuse-state");
+    auto u = service_states_.find("fuse-update");
+    return s != service_states_.end() && s->second != "starting" && u != service_states_.end() &&
+           u->second != "starting" && imu_.matched() > 0 && scans_.matched() > 0;
+  };
+  while (std::chrono::steady_clock::now() < end && !stop_requested()) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (ready()) return true;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return false;
+}
+
+void IngestService::publish(const io::SensorEvent& ev) {
+  if (ev.kind == io::SensorEvent::Kind::kImu) {
+    imu_.publish(to_msg(ev.imu, kFrameImu));
+  } else {
+    scans_.publish(to_msg(ev.scan, kFrameLidar));
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  counters_.add(ev.kind == io::SensorEvent::Kind::kImu ? "imu_published" : "scans_published");
+}
+
+void IngestService::wait_for_correction(double t_end, std::uint64_t sequence) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  const bool answered = cv_.wait_for(lock, std::chrono::duration<double>(config_.ingest.lockstep_timeout_s), [&] {
+    return stop_requested() || last_correction_t_ >= t_end - 1e-9 ||
+           (have_correction_ && last_correction_sequence_ == sequence && !std::isfinite(t_end));
+  });
+  if (!answered) {
+    counters_.count("correction_timeout", "no answer from fuse-update for the scan ending at t=" + std::to_string(t_end) +
+                                              " within ingest.lockstep_timeout_s: going on");
+  }
+}
+
+int IngestService::run() {
+  auto log = logger(kName);
+  if (!wait_for_pipeline()) {
+    if (stop_requested()) return 0;
+    log->warn("fuse-state / fuse-update not ready after {:.1f} s: replaying anyway", config_.ingest.start_wait_s);
+    std::lock_guard<std::mutex> lock(mutex_);
+    counters_.add("started_without_pipeline");
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    state_ = "running";
+  }
+  const bool lockstep = options_.mode == "lockstep";
+  // A restarted lockstep replay resumes after the last scan fuse-update answered.
+  double resume_after = -1.0;
+  if (lockstep) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (have_correction_) resume_after = last_correction_t_;
+  }
+  if (resume_after > 0.0) log->info("resuming after t={:.3f} (the last answered scan)", resume_after);
+
+  io::SensorEvent ev;
+  std::optional<double> t0;
+  double wall0 = options_.start_wall.value_or(unix_now());
+  bool pending = false;  // lockstep: a scan awaits its answer
+  double pending_t = 0.0;
+  std::uint64_t pending_sequence = 0;
+  std::size_t skipped = 0;
+  try {
+    while (!stop_requested() && source_->next(ev)) {
+      const double t = ev.arrival_time();
+      if (!t0) t0 = t;
+      if (lockstep) {
+        if (t <= resume_after) {
+          ++skipped;
+          continue;
+        }
+        if (ev.kind == io::SensorEvent::Kind::kLidar && pending) {
+          wait_for_correction(pending_t, pending_sequence);
+          pending = false;
+        }
+        publish(ev);
+        if (ev.kind == io::SensorEvent::Kind::kLidar) {
+          pending = true;
+          pending_t = ev.scan.t_end;
+          pending_sequence = ev.scan.sequence;
+        } else if (pending && ev.imu.t > pending_t) {
+          wait_for_correction(pending_t, pending_sequence);
+          pending = false;
+        }
+        continue;
+      }
+      const double due = wall0 + (t - *t0) / options_.rate;
+      const double wait = due - unix_now();
+      if (wait < -0.05) {  // the schedule is past this event (a restarted ingest): a data gap
+        ++skipped;
+        continue;
+      }
+      if (wait > 0.0 && wait_for_stop(wait)) break;
+      publish(ev);
+    }
+    if (pending) wait_for_correction(pending_t, pending_sequence);
+    if (!lockstep && !stop_requested()) wait_for_stop(0.5);  // let the last scan's answer come back
+  } catch (const io::InputError& e) {
+    log->error("input error: {}", e.what());
+    return 1;
+  }
+  if (skipped > 0) log->info("{} events skipped (before the resume point or behind the schedule)", skipped);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    counters_.add("events_skipped", skipped);
+    state_ = "stopping";
+  }
+  health_->publish_now();
+  for (const auto& [reason, n] : source_->stats().rejected) log->warn("input refused: {} x{}", reason, n);
+  log->info("replay done: {} IMU samples, {} scans", source_->stats().imu_samples, source_->stats().scans);
+  return 0;
+}
+
+HealthSnapshot IngestService::health() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  HealthSnapshot s;
+  s.state = state_;
+  s.counters = counters_.map();
+  for (const auto& [reason, n] : source_->stats().rejected) s.counters["input_" + reason] = n;
+  return s;
+}
+
+}  // namespace fuse::service

@@ -1,0 +1,24 @@
+// fuse-update: LiDAR update against the local map replica (see update_service.hpp).
+#include "fuse/core/logging.hpp"
+#include "fuse/service/runtime.hpp"
+#include "update_service.hpp"
+
+int main(int argc, char** argv) {
+  using namespace fuse::service;
+  ServiceArgs args;
+  SystemConfig config;
+  int exit_code = 0;
+  if (!start_service("fuse-update", argc, argv, {}, args, config, exit_code)) return exit_code;
+  auto log = fuse::logger("fuse-update");
+  try {
+    auto participant = fuse::transport::make_participant(config.transport, "fuse-update");
+    UpdateService service(config, *participant);
+    log->info("running");
+    service.run();
+  } catch (const std::exception& e) {
+    log->error("{}", e.what());
+    return 1;
+  }
+  log->info("stopped");
+  return 0;
+}

@@ -1,0 +1,341 @@
+#include "update_service.hpp"
+
+#include <cmath>
+#include <thread>
+
+#include "fuse/core/logging.hpp"
+#include "fuse/estimation/estimator.hpp"
+#include "fuse/service/runtime.hpp"
+
+namespace fuse::service {
+
+namespace {
+constexpr const char* kName = "fuse-update";
+constexpr std::size_t kMaxQueuedScans = 50;  ///< beyond this backlog the oldest scan is dropped (counted)
+using Clock = std::chrono::steady_clock;
+using Ms = std::chrono::milliseconds;
+}  // namespace
+
+UpdateService::UpdateService(const SystemConfig& config, transport::Participant& participant)
+    : config_(config),
+      session_(transport::random_id()),
+      updater_(config.estimator),
+      counters_(logger(kName)),
+      corrections_(participant, transport::topics::kCorrection),
+      observations_(participant, transport::topics::kObservation),
+      history_(participant, transport::services::kHistory) {
+  auto bad = [this](const char* topic) {
+    return [this, topic](const std::string& why) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      counters_.count(std::string("malformed_") + topic, std::string("malformed ") + topic + " sample: " + why);
+      last_error_ = why;
+    };
+  };
+  chunk_sub_ = std::make_unique<transport::Subscriber<fuse_msgs::MapChunk>>(
+      participant, transport::topics::kMapChunk, [this](const fuse_msgs::MapChunk& m) { on_chunk(m); }, bad("chunk"));
+  status_sub_ = std::make_unique<transport::Subscriber<fuse_msgs::MapStatus>>(
+      participant, transport::topics::kMapStatus, [this](const fuse_msgs::MapStatus& m) { on_status(m); }, bad("status"));
+  scan_sub_ = std::make_unique<transport::Subscriber<fuse_msgs::LidarScan>>(
+      participant, transport::topics::kLidarScan, [this](const fuse_msgs::LidarScan& m) { on_scan(m); }, bad("scan"));
+  health_ = std::make_unique<HealthReporter>(participant, kName, config.health.period_s, [this] { return health(); });
+  logger(kName)->info("session {:016x}", session_);
+}
+
+UpdateService::~UpdateService() {
+  // Stop the callbacks before the members they use go away.
+  scan_sub_.reset();
+  status_sub_.reset();
+  chunk_sub_.reset();
+}
+
+void UpdateService::on_scan(const fuse_msgs::LidarScan& msg) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    scans_.push_back(msg);
+    if (scans_.size() > kMaxQueuedScans) {
+      scans_.pop_front();
+      counters_.count("scan_backlog_dropped", "scan backlog over " + std::to_string(kMaxQueuedScans) + ": oldest scan dropped");
+    }
+  }
+  cv_.notify_one();
+}
+
+void UpdateService::on_chunk(const fuse_msgs::MapChunk& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  // Once the replica follows an epoch, its chunks add nothing (the replica is written through);
+  // chunks of a newer epoch are kept for the rebuild.
+  if (state_ != "starting" && msg.epoch() <= replica_epoch_) return;
+  auto it = chunks_.find(msg.key());
+  if (it == chunks_.end() || msg.epoch() > it->second.epoch() ||
+      (msg.epoch() == it->second.epoch() && msg.revision() >= it->second.revision())) {
+    chunks_[msg.key()] = msg;
+  }
+}
+
+void UpdateService::on_status(const fuse_msgs::MapStatus& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  status_ = msg;
+  have_status_ = true;
+  if (msg.session() != session_) return;
+  while (!unacked_.empty() && unacked_.front().msg.sequence_number() <= msg.acked_sequence()) unacked_.pop_front();
+}
+
+void UpdateService::sync_map(double timeout_s) {
+  // Wait for the map server's status, then for every chunk of its epoch (transient-local).
+  const auto end = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout_s));
+  auto complete = [this] {
+    if (!have_status_) return false;
+    std::size_t n = 0;
+    for (const auto& [key, c] : chunks_) n += (c.epoch() == status_.epoch() && !c.points().empty()) ? 1 : 0;
+    return n >= status_.chunks();
+  };
+  for (;;) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (complete() || Clock::now() >= end || stop_requested()) break;
+    }
+    std::this_thread::sleep_for(Ms(10));
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!have_status_) {
+    counters_.count("map_server_unavailable", "no map server status: the replica starts empty");
+    state_ = "running";
+    return;
+  }
+  if (!complete()) counters_.count("map_sync_incomplete", "not every chunk of the map arrived before the sync timeout");
+  updater_.reset_map();
+  std::vector<Eigen::Vector3f> points;
+  std::size_t n = 0;
+  for (const auto& [key, c] : chunks_) {
+    if (c.epoch() != status_.epoch()) continue;
+    points.clear();
+    for (const auto& p : c.points()) points.emplace_back(p.x(), p.y(), p.z());
+    updater_.map().insert(points);
+    n += points.size();
+  }
+  chunks_.clear();
+  replica_epoch_ = status_.epoch();
+  replica_mode_ = status_.mode();
+  if (replica_mode_ == "mapping" || replica_mode_ == "localization") updater_.set_map_mode(replica_mode_);
+  state_ = "running";
+  logger(kName)->info("replica of map epoch {} built from the map server: {} points; mode {}", replica_epoch_, n,
+                      replica_mode_);
+}
+
+void UpdateService::run() {
+  sync_map(config_.update.map_sync_timeout_s);
+  while (!stop_requested()) {
+    fuse_msgs::LidarScan scan;
+    bool have_scan = false;
+    bool resync = false;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      cv_.wait_for(lock, Ms(50), [this] { return !scans_.empty(); });
+      if (have_status_ && status_.epoch() != replica_epoch_) resync = true;
+      if (have_status_ && status_.mode() != replica_mode_ && !resync) {
+        replica_mode_ = status_.mode();
+        if (replica_mode_ == "mapping" || replica_mode_ == "localization") {
+          updater_.set_map_mode(replica_mode_);
+          logger(kName)->info("map mode is now {}", replica_mode_);
+        }
+      }
+      if (!resync && !scans_.empty()) {
+        scan = std::move(scans_.front());
+        scans_.pop_front();
+        have_scan = true;
+      }
+    }
+    if (resync) {
+      logger(kName)->info("the map server replaced its map: rebuilding the replica");
+      sync_map(config_.update.map_sync_timeout_s);
+      continue;
+    }
+    if (have_scan) process(scan);
+    resend_unacked(false);
+  }
+  health_->publish_now();
+}
+
+void UpdateService::publish_skipped(const fuse_msgs::LidarScan& msg) {
+  fuse_msgs::Correction c;
+  c.t(msg.end_time());
+  c.scan_sequence(msg.sequence_number());
+  c.result(fuse_msgs::SCAN_SKIPPED);
+  corrections_.publish(c);
+}
+
+bool UpdateService::fetch_history(const LidarScan& scan, StateHistory& out) {
+  const auto end = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                      std::chrono::duration<double>(config_.update.history_deadline_s));
+  fuse_msgs::HistoryRequest req;
+  req.t_start(scan.t_start);
+  req.t_end(scan.t_end);
+  for (;;) {
+    const auto left = std::chrono::duration_cast<Ms>(end - Clock::now());
+    if (left.count() <= 0 || stop_requested()) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      counters_.count("history_wait_timeout", "fuse-state did not cover the scan ending at t=" + std::to_string(scan.t_end) +
+                                                  " in time: scan skipped");
+      return false;
+    }
+    auto result = history_.call(req, left);
+    if (result.status == fuse_msgs::RPC_NOT_READY) {
+      if (!result.reply.initialised()) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        counters_.count("scan_before_init", "scan before the state is initialised, skipped");
+        return false;
+      }
+      std::this_thread::sleep_for(Ms(1));
+      continue;
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (result.status == fuse_msgs::RPC_UNAVAILABLE) {
+      counters_.count("state_unavailable", "no answer from fuse-state: scan skipped");
+      return false;
+    }
+    if (!result.ok()) {
+      counters_.count("history_refused", "fuse-state refused the history request: " + result.message);
+      return false;
+    }
+    std::vector<StateHistory::Entry> entries;
+    try {
+      for (const auto& e : result.reply.entries()) entries.push_back(from_msg(e));
+    } catch (const InvalidSample& e) {
+      counters_.count(e.reason(), std::string("history reply refused: ") + e.what());
+      return false;
+    }
+    if (entries.empty() || std::abs(entries.back().t - scan.t_end) > 1e-6) {
+      counters_.count("history_invalid", "history reply does not end at the scan end");
+      return false;
+    }
+    for (int r = 0; r < kStateDim; ++r) {
+      for (int c = 0; c < kStateDim; ++c) {
+        entries.back().P(r, c) = result.reply.covariance()[static_cast<std::size_t>(r * kStateDim + c)];
+      }
+    }
+    if (!entries.back().P.allFinite()) {
+      counters_.count("history_invalid", "history covariance is not finite");
+      return false;
+    }
+    out.assign(entries, result.reply.last_correction_time());
+    return true;
+  }
+}
+
+void UpdateService::process(const fuse_msgs::LidarScan& msg) {
+  LidarScan scan;
+  try {
+    scan = from_msg(msg);
+  } catch (const InvalidSample& e) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      counters_.count(e.reason(), std::string("scan refused: ") + e.what());
+      last_error_ = e.what();
+    }
+    publish_skipped(msg);
+    return;
+  }
+  if (scan.t_end <= last_scan_t_) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      counters_.count("scan_out_of_order", "scan ending at t=" + std::to_string(scan.t_end) + " is not newer than the last one, refused");
+    }
+    publish_skipped(msg);
+    return;
+  }
+  StateHistory history(config_.estimator.history, config_.estimator.imu);
+  if (!fetch_history(scan, history)) {
+    publish_skipped(msg);
+    return;
+  }
+  last_scan_t_ = scan.t_end;
+  ScanReport report;
+  try {
+    report = updater_.process(scan, history);
+  } catch (const DivergenceError& e) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      counters_.count("diverged", std::string("estimator diverged: ") + e.what());
+      last_error_ = e.what();
+      state_ = "degraded";
+    }
+    publish_skipped(msg);
+    return;
+  }
+  const StateQuery q = history.query(scan.t_end);
+  Posterior post{scan.t_end, scan.sequence, q.x, q.P};
+  fuse_msgs::Correction c = to_msg(post);
+  c.result(report.updated ? fuse_msgs::SCAN_UPDATED : fuse_msgs::SCAN_PRIOR_ONLY);
+  c.constraints_kept(static_cast<std::uint32_t>(report.constraints));
+  c.constraints_rejected(
+      static_cast<std::uint32_t>(report.rejected_no_neighbors + report.rejected_not_planar + report.rejected_screening));
+  c.iterations(static_cast<std::uint32_t>(report.iterations));
+  c.min_eigenvalue_translation(report.min_eig_translation);
+  c.min_eigenvalue_rotation(report.min_eig_rotation);
+  c.min_gamma(report.min_gamma);
+  c.update_ms(report.ms_total);
+  c.converged(report.converged);
+  corrections_.publish(c);
+  offer_to_map(scan.t_end);
+  std::lock_guard<std::mutex> lock(mutex_);
+  updater_counts_ = updater_.counters().map();
+  counters_.add("scans_processed");
+  if (report.updated) counters_.add("scans_updated");
+}
+
+void UpdateService::offer_to_map(double t) {
+  const auto& points = updater_.last_world_points();
+  if (points.empty()) return;
+  fuse_msgs::MapObservation m;
+  m.session(session_);
+  m.sequence_number(++observation_sequence_);
+  m.t(t);
+  const Eigen::Isometry3d& T = updater_.last_T_world_lidar();
+  m.sensor_pose(to_pose(T.translation(), T.linear()));
+  m.points().resize(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    m.points()[i].x(points[i].x());
+    m.points()[i].y(points[i].y());
+    m.points()[i].z(points[i].z());
+  }
+  observations_.publish(m);
+  std::lock_guard<std::mutex> lock(mutex_);
+  unacked_.push_back({std::move(m), Clock::now()});
+  if (unacked_.size() > config_.update.max_unacked) {
+    unacked_.pop_front();
+    counters_.count("observations_dropped_unacked",
+                    "more than update.max_unacked observations unacknowledged: the oldest is dropped");
+  }
+}
+
+void UpdateService::resend_unacked(bool all) {
+  const auto now = Clock::now();
+  const auto age = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config_.update.resend_after_s));
+  std::vector<fuse_msgs::MapObservation> resend;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (auto& u : unacked_) {
+      if (all || now - u.sent >= age) {
+        resend.push_back(u.msg);
+        u.sent = now;
+      }
+    }
+    if (!resend.empty()) counters_.add("observations_resent", resend.size());
+  }
+  for (const auto& m : resend) observations_.publish(m);
+}
+
+HealthSnapshot UpdateService::health() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  HealthSnapshot s;
+  s.state = state_;
+  s.counters = counters_.map();
+  for (const auto& [k, v] : updater_counts_) s.counters[k] += v;
+  s.counters["observations_unacked"] = unacked_.size();
+  s.counters["scans_queued"] = scans_.size();
+  if (scan_sub_) s.counters["scan_malformed"] = scan_sub_->malformed();
+  s.last_error = last_error_;
+  return s;
+}
+
+}  // namespace fuse::service

@@ -1,0 +1,84 @@
+// fuse-update (DESIGN §2): owns the local map replica and the estimator backend.
+//   in:  lidar/scan, map/chunk + map/status (replica sync, mode, acknowledgements)
+//   out: update/correction (one per scan: posterior at scan end with the full covariance, or
+//        "prior only" / "skipped"), map/observation (world-frame points of each processed scan)
+//   uses RPC history (fuse-state) for the slice of state history over each scan.
+// One scan: ask fuse-state for the history over [t_start, t_end] (it answers once IMU covers
+// t_end), run the LiDAR step (LidarUpdater: deskew, associate, screen, update) on that slice,
+// publish the posterior, offer the points to the map.
+// The replica is written through: the policy inserts each scan's points locally at once, as in
+// the single-process estimator (the next scan must see them with no round trip); the map
+// server's chunks build the replica at start-up and after the map server replaces its map
+// (a new epoch). Observations carry (session, sequence); those the map server has not yet
+// acknowledged on map/status are re-sent.
+#pragma once
+
+#include <condition_variable>
+#include <deque>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include "fuse/estimation/lidar_updater.hpp"
+#include "fuse/service/convert.hpp"
+#include "fuse/service/health.hpp"
+#include "fuse/service/system_config.hpp"
+#include "fuse/transport/rpc.hpp"
+
+namespace fuse::service {
+
+class UpdateService {
+ public:
+  UpdateService(const SystemConfig& config, transport::Participant& participant);
+  ~UpdateService();
+  /// Runs until a stop is requested.
+  void run();
+
+ private:
+  struct Unacked {
+    fuse_msgs::MapObservation msg;
+    std::chrono::steady_clock::time_point sent;
+  };
+  void on_scan(const fuse_msgs::LidarScan& msg);
+  void on_chunk(const fuse_msgs::MapChunk& msg);
+  void on_status(const fuse_msgs::MapStatus& msg);
+  void sync_map(double timeout_s);
+  void process(const fuse_msgs::LidarScan& msg);
+  /// Asks fuse-state for the history slice; false (counted) when the scan must be skipped.
+  bool fetch_history(const LidarScan& scan, StateHistory& out);
+  void publish_skipped(const fuse_msgs::LidarScan& msg);
+  void offer_to_map(double t);
+  void resend_unacked(bool all);
+  HealthSnapshot health();
+
+  SystemConfig config_;
+  const std::uint64_t session_;
+  LidarUpdater updater_;  ///< worker thread only
+  double last_scan_t_ = -1.0;
+  std::uint64_t observation_sequence_ = 0;
+
+  std::mutex mutex_;  ///< guards what the DDS callbacks share with the worker
+  std::condition_variable cv_;
+  std::deque<fuse_msgs::LidarScan> scans_;
+  std::map<std::uint64_t, fuse_msgs::MapChunk> chunks_;  ///< newest chunk of each key, kept while (re)syncing
+  bool have_status_ = false;
+  fuse_msgs::MapStatus status_;
+  std::uint64_t replica_epoch_ = 0;
+  std::string replica_mode_;
+  std::deque<Unacked> unacked_;
+  Counters counters_;
+  std::map<std::string, std::uint64_t> updater_counts_;  ///< copied from the worker after each scan
+  std::string last_error_;
+  std::string state_ = "starting";
+
+  transport::Publisher<fuse_msgs::Correction> corrections_;
+  transport::Publisher<fuse_msgs::MapObservation> observations_;
+  transport::RpcClient<fuse_msgs::HistoryRequest, fuse_msgs::HistoryReply> history_;
+  std::unique_ptr<transport::Subscriber<fuse_msgs::MapChunk>> chunk_sub_;
+  std::unique_ptr<transport::Subscriber<fuse_msgs::MapStatus>> status_sub_;
+  std::unique_ptr<transport::Subscriber<fuse_msgs::LidarScan>> scan_sub_;
+  std::unique_ptr<HealthReporter> health_;
+};
+
+}  // namespace fuse::service
