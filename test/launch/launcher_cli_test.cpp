@@ -75,7 +75,8 @@ TEST_F(LauncherCli, StartsTheServicesAndStopsThemInReverseWhenTheReplayIsDone) {
                              "\n--set\nestimator.update.max_iterations=3\n--set\ntransport.domain_id=45\n"
                              "--set\ntransport.vendor=cyclonedds\n";
   EXPECT_EQ(args_of("fuse-map"), common + "--map-dir\n" + out() + "/map\n");
-  EXPECT_EQ(args_of("fuse-state"), common + "--trajectory\n" + out() + "/trajectory.tum\n");
+  EXPECT_EQ(args_of("fuse-state"), common + "--trajectory\n" + out() + "/trajectory.tum\n--calibration-from\n" +
+                                       dir_.str("recording.mcap") + "\n");
   EXPECT_EQ(args_of("fuse-update"), common);
   const std::string ingest = args_of("fuse-ingest");
   EXPECT_EQ(ingest.rfind(common + "--input\n" + dir_.str("recording.mcap") + "\n--mode\nrealtime\n--rate\n2\n--start-wall\n", 0), 0u)

@@ -48,7 +48,9 @@ LaunchPlan make_launch_plan(const LaunchOptions& o, double start_wall) {
   plan.log_dir = path_in(o.out_dir, "logs");
   const std::string map_dir = o.map_dir.empty() ? path_in(o.out_dir, "map") : o.map_dir;
   plan.services.push_back(service(o, "fuse-map", {"--map-dir", map_dir}));
-  plan.services.push_back(service(o, "fuse-state", {"--trajectory", path_in(o.out_dir, "trajectory.tum")}));
+  // As fuse-run does, the recording's own extrinsic (when it has one) overrides the config's.
+  plan.services.push_back(service(o, "fuse-state", {"--trajectory", path_in(o.out_dir, "trajectory.tum"),
+                                                    "--calibration-from", o.input}));
   plan.services.push_back(service(o, "fuse-update", {}));
   std::vector<std::string> ingest{"--input", o.input, "--mode", o.mode};
   if (o.rate) ingest.insert(ingest.end(), {"--rate", number(*o.rate)});
