@@ -91,7 +91,10 @@ void IngestService::wait_for_correction(double t_end, std::uint64_t sequence) {
 
 int IngestService::run() {
   auto log = logger(kName);
-  if (!wait_for_pipeline()) {
+  // A restarted real-time replay joins a schedule already running: it plays at once (the IMU
+  // topic is transient-local, so what it publishes before discovery completes still arrives).
+  const bool resuming = options_.mode == "realtime" && options_.start_wall && *options_.start_wall < unix_now();
+  if (!resuming && !wait_for_pipeline()) {
     if (stop_requested()) return 0;
     log->warn("fuse-state / fuse-update not ready after {:.1f} s: replaying anyway", config_.ingest.start_wait_s);
     std::lock_guard<std::mutex> lock(mutex_);

@@ -29,8 +29,10 @@ std::map<std::string, TopicQos> make_table() {
   t[topics::kOdometry] = qos(kBestEffort, kVolatile, 10);
   // The latest corrected state: a late joiner gets it at once.
   t[topics::kCorrected] = qos(kReliable, kTransientLocal, 1);
-  // The latest posterior of fuse-update: fuse-state (re)starting picks it up.
-  t[topics::kCorrection] = qos(kReliable, kTransientLocal, 1);
+  // fuse-update's answers, one per scan: a (re)starting fuse-state picks the newest posterior
+  // from them. Scans skipped while fuse-state was down are answered too, so the depth covers
+  // 5 s of them at 10 Hz and the last real posterior is still held.
+  t[topics::kCorrection] = qos(kReliable, kTransientLocal, 50);
   // Every accepted scan's points must reach the map server (it journals them); 100 in flight.
   t[topics::kObservation] = qos(kReliable, kVolatile, 100);
   // Keyed by chunk: depth 1 per instance, so a late-joining replica gets the latest of every chunk.
