@@ -26,4 +26,12 @@ inline bool key_hash_from_sample(const std::uint8_t* data, std::size_t size, std
   return true;
 }
 
+/// Size of a received sample without the padding its encapsulation options declare (XTypes:
+/// the low two bits of the options are the number of padding bytes at the end).
+inline std::size_t unpadded_size(const std::uint8_t* data, std::size_t size) {
+  if (size < 4) return size;
+  const std::size_t padding = data[3] & 3u;
+  return size >= 4 + padding ? size - padding : size;
+}
+
 }  // namespace fuse::transport::detail

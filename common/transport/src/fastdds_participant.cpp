@@ -16,12 +16,19 @@
 // - Sockets: send/receive buffers of config.socket_buffer_bytes (4 MiB): with the default
 //   buffers a 1 MiB cloud takes ~12 ms on loopback (fragments are dropped and repaired), ~1 ms
 //   with 4 MiB.
-// - Reliable writers heartbeat every 100 ms (default 3 s) so a lost fragment is repaired fast.
+// - Reliable writers heartbeat every 100 ms (default 3 s) so a lost fragment is repaired fast,
+//   and send one before the first write after a reader matched: Cyclone DDS readers drop data
+//   until they have seen a heartbeat and then treat everything it lists as old history, and
+//   Fast DDS would only heartbeat once there is data (so the first sample to a Cyclone reader
+//   got lost). assert_liveliness() is the public way to send a heartbeat on demand; it needs
+//   manual-by-topic liveliness, whose lease stays infinite so liveliness never lapses.
 // - Shared memory: segments of crashed processes stay in /dev/shm; `fastdds shm clean` removes
 //   them when shared memory is enabled (best effort, never an error).
 // - Receive: the reader's listener takes every available sample and hands the bytes to the
 //   RawHandler, one call at a time per reader. Local writers deliver in the writer's thread
-//   (Fast DDS intra-process delivery), remote ones in the receive thread.
+//   (Fast DDS intra-process delivery), remote ones in the receive thread. RTPS pads payloads to
+//   4 bytes; the padding is removed when the encapsulation options declare it (Fast DDS does
+//   not declare it, so the typed layer tolerates up to 3 trailing bytes).
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
@@ -40,6 +47,7 @@
 #include <fastrtps/utils/IPLocator.h>
 #include <fastrtps/utils/md5.h>
 
+#include <atomic>
 #include <cstdlib>
 #include <cstring>
 #include <map>
@@ -217,8 +225,9 @@ void apply_common_qos(Qos& q, const TypeSupport& type, const TopicQos& qos) {
   auto& limits = q.resource_limits();
   limits.max_samples_per_instance = qos.depth;
   if (type.keyed) {
-    limits.max_instances = dds::LENGTH_UNLIMITED;
-    limits.max_samples = dds::LENGTH_UNLIMITED;
+    // 0, not LENGTH_UNLIMITED: the history pool is sized depth x max_instances, 0 = no limit.
+    limits.max_instances = 0;
+    limits.max_samples = 0;
   } else {
     limits.max_instances = 1;
     limits.max_samples = qos.depth;
@@ -232,11 +241,14 @@ class FastddsWriter : public RawWriter {
  public:
   FastddsWriter(std::shared_ptr<Context> context, const std::string& topic, const TypeSupport& type,
                 const TopicQos& qos)
-      : context_(std::move(context)), topic_(topic) {
+      : context_(std::move(context)), topic_(topic), reliable_(qos.reliability == Reliability::kReliable) {
     dds::Topic* t = context_->acquire_topic(topic, type);
     dds::DataWriterQos q = context_->publisher()->get_default_datawriter_qos();
     apply_common_qos(q, type, qos);
     q.reliable_writer_qos().times.heartbeatPeriod = eprosima::fastrtps::Duration_t(0, 100000000);
+    // Manual-by-topic liveliness (lease infinite, so it never lapses) is what lets
+    // assert_liveliness() send a heartbeat on demand; see write().
+    if (reliable_) q.liveliness().kind = dds::MANUAL_BY_TOPIC_LIVELINESS_QOS;
     writer_ = context_->publisher()->create_datawriter(t, q);
     if (writer_ == nullptr) {
       context_->release_topic(topic);
@@ -249,6 +261,15 @@ class FastddsWriter : public RawWriter {
   }
 
   bool write(const Bytes& sample) override {
+    // A Cyclone DDS reader ignores a reliable writer's data until it has seen a heartbeat, and
+    // then takes everything up to the heartbeat's last sequence number as old history: the
+    // first sample after matching would be lost, because Fast DDS heartbeats only once it has
+    // data. So a heartbeat goes out first whenever a reader matched since the last write.
+    if (reliable_) {
+      dds::PublicationMatchedStatus status;
+      writer_->get_publication_matched_status(status);
+      if (status.total_count > heartbeat_matches_.exchange(status.total_count)) writer_->assert_liveliness();
+    }
     if (writer_->write(const_cast<Bytes*>(&sample))) return true;
     log()->warn("Fast DDS refused a sample of {} bytes on '{}'", sample.size(), topic_);
     return false;
@@ -263,6 +284,8 @@ class FastddsWriter : public RawWriter {
  private:
   std::shared_ptr<Context> context_;
   std::string topic_;
+  bool reliable_;
+  std::atomic<int32_t> heartbeat_matches_{0};  ///< matches (total_count) already heartbeaten
   dds::DataWriter* writer_ = nullptr;
 };
 
@@ -303,7 +326,7 @@ class FastddsReader : public RawReader, public dds::DataReaderListener {
     while (reader->take_next_sample(&sample_, &info) == ReturnCode_t::RETCODE_OK) {
       if (!info.valid_data) continue;  // dispose/unregister notifications carry no sample
       try {
-        handler_(sample_.data(), sample_.size());
+        handler_(sample_.data(), unpadded_size(sample_.data(), sample_.size()));
       } catch (const std::exception& e) {
         log()->error("handler of '{}' threw: {}", topic_, e.what());
       }

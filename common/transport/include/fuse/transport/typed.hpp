@@ -21,9 +21,17 @@ namespace fuse::transport {
 template <class T>
 struct MsgName;
 
+/// Largest serialised size of T, encapsulation included. Computed once: the generated
+/// getMaxCdrSerializedSize() walks every element of a bounded sequence (~1 ms for a MapChunk).
+template <class T>
+std::size_t max_serialized_size() {
+  static const std::size_t size = T::getMaxCdrSerializedSize() + 4;
+  return size;
+}
+
 template <class T>
 TypeSupport type_support() {
-  return TypeSupport{MsgName<T>::value, T::isKeyDefined(), T::getMaxCdrSerializedSize() + 4};
+  return TypeSupport{MsgName<T>::value, T::isKeyDefined(), max_serialized_size<T>()};
 }
 
 template <class T>
@@ -38,9 +46,11 @@ Bytes serialize(const T& msg) {
 }
 
 /// Decodes one sample; false (with the reason in *error) on a malformed or oversized sample.
+/// A received sample may carry up to 3 bytes of padding after the data (the RTPS payload is
+/// padded to 4 bytes, and Fast DDS does not record the padding in the encapsulation options).
 template <class T>
 bool deserialize(const std::uint8_t* data, std::size_t size, T& msg, std::string* error = nullptr) {
-  if (size < 4 || size > T::getMaxCdrSerializedSize() + 4) {
+  if (size < 4 || size > ((max_serialized_size<T>() + 3) & ~std::size_t{3})) {
     if (error) *error = "sample of " + std::to_string(size) + " bytes is outside the type's size range";
     return false;
   }
