@@ -1,0 +1,407 @@
+#include "map_service.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <future>
+#include <stdexcept>
+#include <vector>
+
+#include "fuse/core/logging.hpp"
+
+namespace fuse::map_service {
+
+namespace {
+
+std::shared_ptr<spdlog::logger> log() { return logger("fuse-map"); }
+
+bool finite(const fuse_msgs::Pose& pose) {
+  const auto& p = pose.position();
+  const auto& q = pose.orientation();
+  return std::isfinite(p.x()) && std::isfinite(p.y()) && std::isfinite(p.z()) && std::isfinite(q.x()) &&
+         std::isfinite(q.y()) && std::isfinite(q.z()) && std::isfinite(q.w());
+}
+
+/// Chunks that hold points (a loaded snapshot may carry empty ones).
+std::size_t non_empty_chunks(const PointMap& map) {
+  std::size_t n = 0;
+  map.for_each_chunk([&](const PointChunk& c) { n += c.points.empty() ? 0 : 1; });
+  return n;
+}
+
+void set_reply_error(fuse_msgs::MapControlReply& reply, fuse_msgs::RpcStatus status, const std::string& message) {
+  reply.error(status);
+  reply.error_message(message.substr(0, 255));
+  log()->warn("map/control: {}", message);
+}
+
+/// Refusals are logged once, then every 100th: a misbehaving sender must not flood the log.
+bool worth_logging(std::uint64_t n) { return n == 1 || n % 100 == 0; }
+
+}  // namespace
+
+const char* refusal_reason(const fuse_msgs::MapObservation& o) {
+  if (o.session() == 0) return "refused_session_zero";
+  if (o.sequence_number() == 0) return "refused_sequence_zero";
+  if (!std::isfinite(o.t())) return "refused_time_not_finite";
+  if (!finite(o.sensor_pose())) return "refused_pose_not_finite";
+  if (o.points().size() > fuse_msgs::MAX_SCAN_POINTS) return "refused_too_many_points";
+  return nullptr;
+}
+
+MapService::MapService(const MapServerConfig& config, transport::Participant& participant)
+    : core_(std::make_unique<MapServerCore>(config)),
+      chunks_(participant, transport::topics::kMapChunk),
+      status_(participant, transport::topics::kMapStatus) {
+  // The core has logged every problem of the load; health and status carry a summary.
+  const LoadReport& report = core_->load_report();
+  if (!report.clean()) {
+    const std::string summary = "map load: " + std::to_string(report.problems.size()) +
+                                " problem(s), the good part is kept; first: " + report.problems.front();
+    count("load_problems", report.problems.size());
+    set_error(summary, false);
+    log()->warn("{}", summary);
+  }
+
+  // The whole map once, so that replicas (transient-local, latest per chunk) find it.
+  publish_all_chunks();
+  publish_status();
+  refresh_stats();
+  {
+    std::lock_guard<std::mutex> lock(health_mutex_);
+    state_ = "running";
+  }
+
+  worker_ = std::thread([this] { run(); });
+  try {
+    observations_ = std::make_unique<transport::Subscriber<fuse_msgs::MapObservation>>(
+        participant, transport::topics::kObservation,
+        [this](const fuse_msgs::MapObservation& o) { on_observation(o); },
+        [this](const std::string& reason) { on_malformed(reason); });
+    control_ = std::make_unique<ControlServer>(
+        participant, transport::services::kMapControl,
+        [this](const fuse_msgs::MapControlRequest& req, fuse_msgs::MapControlReply& rep) { on_control(req, rep); });
+  } catch (...) {
+    stop();
+    throw;
+  }
+  log()->info("serving {}: {} points in {} chunks, epoch {}, mode {}", config.directory, core_->map().num_points(),
+              core_->map().num_chunks(), core_->epoch(), core_->mode());
+}
+
+MapService::~MapService() { stop(); }
+
+void MapService::stop() {
+  // Inputs first: the RPC thread may be waiting for the worker, which is still running.
+  observations_.reset();
+  control_.reset();
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    stop_ = true;
+  }
+  queue_cv_.notify_all();
+  if (worker_.joinable()) worker_.join();
+  std::lock_guard<std::mutex> lock(health_mutex_);
+  state_ = "stopping";
+}
+
+service::HealthSnapshot MapService::health() const {
+  service::HealthSnapshot s;
+  {
+    std::lock_guard<std::mutex> lock(health_mutex_);
+    s.state = state_;
+    s.counters = counters_;
+    s.last_error = last_error_;
+  }
+  return s;
+}
+
+// ---- DDS threads ----------------------------------------------------------------------------
+
+void MapService::on_observation(const fuse_msgs::MapObservation& observation) {
+  count("observations_received");
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    if (stop_) return;
+    if (queued_observations_ < kMaxQueuedObservations) {
+      queue_.push_back(Job{std::make_unique<fuse_msgs::MapObservation>(observation), {}});
+      ++queued_observations_;
+      queue_cv_.notify_one();
+      return;
+    }
+  }
+  count("observations_dropped_queue_full");  // unacknowledged: the sender re-sends it
+}
+
+void MapService::on_malformed(const std::string& reason) {
+  count("observations_malformed");
+  log()->warn("malformed observation sample: {}", reason);
+}
+
+void MapService::on_control(const fuse_msgs::MapControlRequest& request, fuse_msgs::MapControlReply& reply) {
+  // Run on the worker, between observations, and wait: the core has one caller.
+  std::packaged_task<void()> task([&] { handle_control(request, reply); });
+  std::future<void> done = task.get_future();
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    if (stop_) throw std::runtime_error("fuse-map is stopping");
+    queue_.push_back(Job{nullptr, [&task] { task(); }});
+  }
+  queue_cv_.notify_one();
+  done.get();  // rethrows: the RPC server then answers RPC_INTERNAL_ERROR
+}
+
+// ---- worker thread --------------------------------------------------------------------------
+
+void MapService::run() {
+  for (;;) {
+    Job job;
+    {
+      std::unique_lock<std::mutex> lock(queue_mutex_);
+      queue_cv_.wait(lock, [this] { return stop_ || !queue_.empty(); });
+      if (stop_) return;  // queued observations stay unacknowledged
+      job = std::move(queue_.front());
+      queue_.pop_front();
+      if (job.observation) --queued_observations_;
+    }
+    try {
+      if (job.observation) {
+        handle_observation(*job.observation);
+      } else {
+        job.control();
+      }
+    } catch (const std::exception& e) {
+      // Not a journal failure (handled where it happens): e.g. a chunk that failed to encode.
+      count("worker_errors");
+      set_error(std::string("worker: ") + e.what(), true);
+      log()->error("worker: {}", e.what());
+    }
+    refresh_stats();
+  }
+}
+
+void MapService::handle_observation(const fuse_msgs::MapObservation& o) {
+  if (const char* reason = refusal_reason(o)) {
+    count("observations_refused");
+    if (worth_logging(count(reason))) {
+      log()->warn("observation session {} sequence {} refused: {} ({} so far)", o.session(), o.sequence_number(),
+                  reason, counter(reason));
+    }
+    return;
+  }
+
+  std::vector<Eigen::Vector3f> points;
+  points.reserve(o.points().size());
+  std::size_t not_finite = 0;
+  for (const fuse_msgs::Point3f& p : o.points()) {
+    points.emplace_back(p.x(), p.y(), p.z());
+    if (!points.back().allFinite()) ++not_finite;
+  }
+  if (not_finite > 0) count("points_not_finite", not_finite);  // the core drops them
+
+  last_session_ = o.session();
+  MapApplyResult r;
+  try {
+    r = core_->apply(o.session(), o.sequence_number(), o.t(), points);
+  } catch (const MapStorageError& e) {
+    // Not journaled, so not applied and not acknowledged: the sender re-sends it.
+    count("journal_errors");
+    set_error(std::string("journal: ") + e.what(), true);
+    {
+      std::lock_guard<std::mutex> lock(health_mutex_);
+      journal_failing_ = true;
+    }
+    log()->error("observation session {} sequence {} not journaled: {}", o.session(), o.sequence_number(), e.what());
+    publish_status();
+    return;
+  }
+
+  if (r.duplicate) {
+    count("observations_duplicate");
+  } else if (r.applied) {
+    count("observations_applied");
+    count("points_inserted", r.inserted);
+    if (r.rejected > not_finite) count("points_out_of_range", r.rejected - not_finite);
+    std::lock_guard<std::mutex> lock(health_mutex_);
+    if (journal_failing_) {
+      journal_failing_ = false;
+      state_ = "running";
+    }
+  } else {
+    count("observations_frozen");  // localization: acknowledged, the map unchanged
+  }
+  log()->debug("observation {}:{} ({} points): {}, {} inserted, {} chunks changed", o.session(), o.sequence_number(),
+               o.points().size(), r.duplicate ? "duplicate" : (r.applied ? "applied" : "frozen"), r.inserted,
+               r.changed_chunks.size());
+
+  for (const std::uint64_t key : r.changed_chunks) {
+    if (const PointChunk* chunk = core_->map().chunk(key)) publish_chunk(*chunk);
+  }
+  publish_status();
+}
+
+void MapService::handle_control(const fuse_msgs::MapControlRequest& request, fuse_msgs::MapControlReply& reply) {
+  count("control_requests");
+  switch (request.command()) {
+    case fuse_msgs::MAP_STATS:
+      break;
+    case fuse_msgs::MAP_SET_MODE: {
+      const std::string mode = request.mode().to_string();
+      if (mode != "mapping" && mode != "localization") {
+        set_reply_error(reply, fuse_msgs::RPC_BAD_REQUEST, "unknown mode '" + mode + "' (mapping | localization)");
+        break;
+      }
+      core_->set_mode(mode);
+      publish_status();
+      break;
+    }
+    case fuse_msgs::MAP_SAVE:
+      try {
+        // Absolute: the caller runs in another directory.
+        const std::string path = std::filesystem::absolute(core_->save(request.path().to_string())).string();
+        reply.path(path);
+        log()->info("saved the map ({} points) to {}", core_->map().num_points(), path);
+      } catch (const std::exception& e) {
+        set_reply_error(reply, fuse_msgs::RPC_INTERNAL_ERROR, std::string("save failed: ") + e.what());
+      }
+      break;
+    case fuse_msgs::MAP_LOAD:
+      load_map(request.path().to_string(), reply);
+      break;
+    default:
+      set_reply_error(reply, fuse_msgs::RPC_BAD_REQUEST,
+                      "unknown command " + std::to_string(static_cast<int>(request.command())));
+  }
+  if (reply.error() != fuse_msgs::RPC_OK) count("control_errors");
+
+  const MapServerStats s = core_->stats();
+  reply.mode(s.mode);
+  reply.epoch(s.epoch);
+  reply.points(s.points);
+  reply.chunks(static_cast<std::uint32_t>(non_empty_chunks(core_->map())));
+  reply.acked_sequence(core_->acked(last_session_));
+  reply.journal_records(s.journal_records);
+}
+
+void MapService::load_map(const std::string& path, fuse_msgs::MapControlReply& reply) {
+  if (path.empty()) {
+    set_reply_error(reply, fuse_msgs::RPC_BAD_REQUEST, "load needs a snapshot file");
+    return;
+  }
+  std::map<std::uint64_t, std::uint64_t> before;  // key -> revision of the map being replaced
+  core_->map().for_each_chunk([&](const PointChunk& c) { before[c.key] = c.revision; });
+
+  LoadReport report;
+  try {
+    report = core_->load(path);
+  } catch (const MapStorageError& e) {
+    set_reply_error(reply, fuse_msgs::RPC_INTERNAL_ERROR,
+                    std::string("load failed, the map is unchanged: ") + e.what());
+    return;
+  }
+  if (!report.snapshot_ok) {
+    const std::string why = report.problems.empty() ? "not a readable snapshot" : report.problems.front();
+    set_reply_error(reply, fuse_msgs::RPC_BAD_REQUEST, "cannot load '" + path + "', the map is unchanged: " + why);
+    return;
+  }
+  if (!report.clean()) {
+    set_error("load " + path + ": " + std::to_string(report.problems.size()) +
+                  " problem(s), the good part is kept; first: " + report.problems.front(),
+              false);
+  }
+
+  // The new epoch everywhere, and an empty chunk where the old map had one the new map lacks, so
+  // that a replica drops it.
+  publish_all_chunks();
+  for (const auto& [key, revision] : before) {
+    if (core_->map().chunk(key) != nullptr) continue;
+    PointChunk empty;
+    empty.key = key;
+    empty.coord = PointMap::unpack_key(key);
+    empty.revision = revision + 1;
+    publish_chunk(empty);
+  }
+  publish_status();
+  reply.path(std::filesystem::absolute(path).string());
+}
+
+void MapService::publish_chunk(const PointChunk& chunk) {
+  if (chunk.points.size() > kMaxChunkPoints) {
+    count("chunks_too_large");
+    log()->error("chunk ({}, {}, {}) holds {} points, more than a map/chunk sample carries ({}): not published",
+                 chunk.coord.x(), chunk.coord.y(), chunk.coord.z(), chunk.points.size(), kMaxChunkPoints);
+    return;
+  }
+  fuse_msgs::MapChunk m;
+  m.key(chunk.key);
+  m.epoch(core_->epoch());
+  m.revision(chunk.revision);
+  m.ix(chunk.coord.x());
+  m.iy(chunk.coord.y());
+  m.iz(chunk.coord.z());
+  m.chunk_size(static_cast<float>(core_->map().chunk_size()));
+  m.points().resize(chunk.points.size());
+  for (std::size_t i = 0; i < chunk.points.size(); ++i) {
+    m.points()[i].x(chunk.points[i].x());
+    m.points()[i].y(chunk.points[i].y());
+    m.points()[i].z(chunk.points[i].z());
+  }
+  count(chunks_.publish(m) ? "chunks_published" : "chunk_publish_failures");
+}
+
+void MapService::publish_all_chunks() {
+  core_->map().for_each_chunk([&](const PointChunk& c) { publish_chunk(c); });
+}
+
+void MapService::publish_status() {
+  const MapServerStats s = core_->stats();
+  fuse_msgs::MapStatus m;
+  m.epoch(s.epoch);
+  m.mode(s.mode);
+  m.session(last_session_);
+  m.acked_sequence(core_->acked(last_session_));
+  m.points(s.points);
+  m.chunks(static_cast<std::uint32_t>(non_empty_chunks(core_->map())));
+  m.observations_applied(s.observations_applied);
+  m.journal_records(s.journal_records);
+  {
+    std::lock_guard<std::mutex> lock(health_mutex_);
+    m.last_error(last_error_.substr(0, 255));
+  }
+  count(status_.publish(m) ? "statuses_published" : "status_publish_failures");
+}
+
+void MapService::refresh_stats() {
+  const MapServerStats s = core_->stats();
+  std::lock_guard<std::mutex> lock(health_mutex_);
+  counters_["map_epoch"] = s.epoch;
+  counters_["map_points"] = s.points;
+  counters_["map_chunks"] = s.chunks;
+  counters_["map_observations_applied"] = s.observations_applied;
+  counters_["journal_records"] = s.journal_records;
+  counters_["snapshots"] = s.snapshots;
+  counters_["localization"] = s.mode == "localization" ? 1 : 0;
+  // An automatic snapshot that failed: the observations are safe in the journal, so not degraded.
+  if (!s.last_error.empty() && s.last_error != snapshot_error_) {
+    snapshot_error_ = s.last_error;
+    last_error_ = "automatic snapshot: " + s.last_error;
+  }
+}
+
+std::uint64_t MapService::count(const std::string& counter, std::uint64_t n) {
+  std::lock_guard<std::mutex> lock(health_mutex_);
+  return counters_[counter] += n;
+}
+
+std::uint64_t MapService::counter(const std::string& counter) const {
+  std::lock_guard<std::mutex> lock(health_mutex_);
+  const auto it = counters_.find(counter);
+  return it == counters_.end() ? 0 : it->second;
+}
+
+void MapService::set_error(const std::string& error, bool degraded) {
+  std::lock_guard<std::mutex> lock(health_mutex_);
+  last_error_ = error;
+  if (degraded) state_ = "degraded";
+}
+
+}  // namespace fuse::map_service

@@ -1,0 +1,113 @@
+// fuse-map's transport side (DESIGN §2): MapServerCore behind DDS.
+//
+//   map/observation -> queue -> ONE worker thread: check, apply (journal first), then publish the
+//                      changed chunks (whole contents) and a MapStatus for that session
+//   rpc map/control -> the same queue, the RPC thread waits for the worker: the core (not
+//                      thread-safe) only ever sees the worker
+//   map/chunk       <- every chunk at start-up and after a load (with an empty chunk of the new
+//                      epoch for every key the loaded map no longer has), changed chunks after
+//                      each applied observation
+//   map/status      <- at start-up, after every observation (duplicates are acknowledged again)
+//                      and after a mode change or a load
+//
+// The DDS callbacks only enqueue. When the worker falls behind, observations beyond the queue's
+// bound are dropped and counted: they stay unacknowledged and their sender re-sends them.
+// A journal write that fails (MapStorageError) leaves the observation unacknowledged; the service
+// reports itself degraded and keeps running, the next journaled observation clears that.
+#pragma once
+
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "fuse/map/map_server_core.hpp"
+#include "fuse/service/health.hpp"
+#include "fuse/transport/rpc.hpp"
+
+namespace fuse::map_service {
+
+/// The observation's refusal counter ("refused_session_zero", ...), or nullptr when it is usable.
+/// Points that are not finite do not refuse an observation: they are dropped and counted.
+const char* refusal_reason(const fuse_msgs::MapObservation& observation);
+
+class MapService {
+ public:
+  /// Observations waiting for the worker beyond this are dropped (the sender re-sends them).
+  static constexpr std::size_t kMaxQueuedObservations = 128;
+  /// Most points one published chunk can carry (the bound of MapChunk.points in fuse_msgs.idl).
+  static constexpr std::size_t kMaxChunkPoints = 1048576;
+
+  /// Loads the map directory (damage is logged and kept for health), publishes every chunk and a
+  /// status, then starts serving. Throws MapStorageError when the directory cannot be used
+  /// (unwritable, or locked by another fuse-map), ConfigError on a bad config.
+  MapService(const MapServerConfig& config, transport::Participant& participant);
+  ~MapService();
+  MapService(const MapService&) = delete;
+  MapService& operator=(const MapService&) = delete;
+
+  /// Stops taking observations and requests, then stops the worker (queued observations are
+  /// dropped unacknowledged). Idempotent.
+  void stop();
+
+  /// State, counters and last error for the heartbeat (any thread).
+  service::HealthSnapshot health() const;
+
+ private:
+  using ControlServer = transport::RpcServer<fuse_msgs::MapControlRequest, fuse_msgs::MapControlReply>;
+
+  struct Job {
+    std::unique_ptr<fuse_msgs::MapObservation> observation;  ///< set: an observation
+    std::function<void()> control;                           ///< otherwise: a control request
+  };
+
+  // DDS threads: enqueue only.
+  void on_observation(const fuse_msgs::MapObservation& observation);
+  void on_malformed(const std::string& reason);
+  void on_control(const fuse_msgs::MapControlRequest& request, fuse_msgs::MapControlReply& reply);
+
+  // Worker thread: everything that touches the core.
+  void run();
+  void handle_observation(const fuse_msgs::MapObservation& observation);
+  void handle_control(const fuse_msgs::MapControlRequest& request, fuse_msgs::MapControlReply& reply);
+  void load_map(const std::string& path, fuse_msgs::MapControlReply& reply);
+  void publish_chunk(const PointChunk& chunk);
+  void publish_all_chunks();
+  void publish_status();
+  void refresh_stats();
+
+  /// Adds n to a health counter; returns its new value.
+  std::uint64_t count(const std::string& counter, std::uint64_t n = 1);
+  std::uint64_t counter(const std::string& counter) const;
+  void set_error(const std::string& error, bool degraded);
+
+  std::unique_ptr<MapServerCore> core_;  ///< worker thread only (and the constructor)
+  std::uint64_t last_session_ = 0;       ///< session of the newest observation handled
+
+  transport::Publisher<fuse_msgs::MapChunk> chunks_;
+  transport::Publisher<fuse_msgs::MapStatus> status_;
+
+  mutable std::mutex health_mutex_;
+  std::map<std::string, std::uint64_t> counters_;
+  std::string state_ = "starting";
+  std::string last_error_;
+  bool journal_failing_ = false;  ///< degraded until an observation is journaled again
+  std::string snapshot_error_;    ///< the core's last automatic-snapshot error, already reported
+
+  std::mutex queue_mutex_;
+  std::condition_variable queue_cv_;
+  std::deque<Job> queue_;
+  std::size_t queued_observations_ = 0;
+  bool stop_ = false;
+  std::thread worker_;
+
+  std::unique_ptr<transport::Subscriber<fuse_msgs::MapObservation>> observations_;
+  std::unique_ptr<ControlServer> control_;
+};
+
+}  // namespace fuse::map_service
