@@ -1,7 +1,10 @@
 #include "state_service.hpp"
 
+#include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <iomanip>
+#include <optional>
 
 #include "fuse/core/logging.hpp"
 #include "fuse/service/runtime.hpp"
@@ -33,6 +36,12 @@ StateService::StateService(const SystemConfig& config, transport::Participant& p
       odometry_(participant, transport::topics::kOdometry),
       corrected_(participant, transport::topics::kCorrected) {
   if (!trajectory_file.empty()) {
+    {  // A restarted fuse-state appends after what its previous instance wrote.
+      std::ifstream existing(trajectory_file);
+      for (std::string line; std::getline(existing, line);) {
+        if (!line.empty() && line[0] != '#') trajectory_t_ = std::max(trajectory_t_, std::atof(line.c_str()));
+      }
+    }
     trajectory_.open(trajectory_file, std::ios::app);
     if (!trajectory_) throw std::runtime_error("cannot open trajectory file '" + trajectory_file + "' for appending");
     trajectory_ << std::fixed << std::setprecision(9);
@@ -53,8 +62,19 @@ StateService::StateService(const SystemConfig& config, transport::Participant& p
 }
 
 void StateService::run() {
-  // Recovery wait: a correction held by fuse-update's writer arrives within discovery time.
-  if (!wait_for_stop(config_.state.recovery_wait_s)) {
+  // Recovery wait: the corrections held by fuse-update's writer arrive once it is discovered;
+  // wait for that (and a moment for the backlog), at most state.recovery_wait_s.
+  constexpr double kBacklogSettle = 0.2;  // s after matching fuse-update
+  const auto start = std::chrono::steady_clock::now();
+  std::optional<std::chrono::steady_clock::time_point> matched;
+  while (!stop_requested()) {
+    const auto now = std::chrono::steady_clock::now();
+    if (!matched && correction_sub_->matched() > 0) matched = now;
+    if (matched && std::chrono::duration<double>(now - *matched).count() >= kBacklogSettle) break;
+    if (std::chrono::duration<double>(now - start).count() >= config_.state.recovery_wait_s) break;
+    wait_for_stop(0.01);
+  }
+  if (!stop_requested()) {
     std::lock_guard<std::mutex> lock(mutex_);
     go_live();
   }
@@ -181,7 +201,8 @@ void StateService::on_correction(const fuse_msgs::Correction& msg) {
     }
     const StateQuery q = tracker_.history().query(post.t);
     if (!q.ok()) return;
-    if (trajectory_.is_open()) {
+    if (trajectory_.is_open() && q.t > trajectory_t_) {
+      trajectory_t_ = q.t;
       const Eigen::Quaterniond r(q.x.R);
       trajectory_ << q.t << ' ' << q.x.p.x() << ' ' << q.x.p.y() << ' ' << q.x.p.z() << ' ' << r.x() << ' ' << r.y() << ' '
                   << r.z() << ' ' << r.w() << '\n';
@@ -228,7 +249,12 @@ void StateService::on_history(const fuse_msgs::HistoryRequest& req, fuse_msgs::H
     set_error(fuse_msgs::RPC_BAD_REQUEST, "history span must be finite, ordered and at most 1 s", rep);
     return;
   }
-  rep.initialised(live_ && tracker_.initialised());
+  if (!live_) {  // recovering: the caller should retry, as for IMU not covering the scan yet
+    rep.initialised(true);
+    set_error(fuse_msgs::RPC_NOT_READY, "recovering the last correction", rep);
+    return;
+  }
+  rep.initialised(tracker_.initialised());
   if (!rep.initialised()) {
     set_error(fuse_msgs::RPC_NOT_READY, "the state is not initialised", rep);
     return;

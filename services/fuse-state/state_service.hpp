@@ -52,6 +52,7 @@ class StateService {
   double last_applied_correction_t_ = -1.0;
   std::string last_error_;
   std::ofstream trajectory_;
+  double trajectory_t_ = -1.0;  ///< newest pose in the trajectory file (kept across restarts)
 
   transport::Publisher<fuse_msgs::StateEstimate> odometry_;
   transport::Publisher<fuse_msgs::StateEstimate> corrected_;

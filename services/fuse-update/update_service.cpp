@@ -35,6 +35,11 @@ UpdateService::UpdateService(const SystemConfig& config, transport::Participant&
       participant, transport::topics::kMapChunk, [this](const fuse_msgs::MapChunk& m) { on_chunk(m); }, bad("chunk"));
   status_sub_ = std::make_unique<transport::Subscriber<fuse_msgs::MapStatus>>(
       participant, transport::topics::kMapStatus, [this](const fuse_msgs::MapStatus& m) { on_status(m); }, bad("status"));
+  corrected_sub_ = std::make_unique<transport::Subscriber<fuse_msgs::StateEstimate>>(
+      participant, transport::topics::kCorrected, [this](const fuse_msgs::StateEstimate& m) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (std::isfinite(m.t())) corrected_t_ = std::max(corrected_t_, m.t());
+      });
   scan_sub_ = std::make_unique<transport::Subscriber<fuse_msgs::LidarScan>>(
       participant, transport::topics::kLidarScan, [this](const fuse_msgs::LidarScan& m) { on_scan(m); }, bad("scan"));
   health_ = std::make_unique<HealthReporter>(participant, kName, config.health.period_s, [this] { return health(); });
@@ -44,6 +49,7 @@ UpdateService::UpdateService(const SystemConfig& config, transport::Participant&
 UpdateService::~UpdateService() {
   // Stop the callbacks before the members they use go away.
   scan_sub_.reset();
+  corrected_sub_.reset();
   status_sub_.reset();
   chunk_sub_.reset();
 }
@@ -51,6 +57,10 @@ UpdateService::~UpdateService() {
 void UpdateService::on_scan(const fuse_msgs::LidarScan& msg) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    if (msg.end_time() <= corrected_t_) {  // re-delivered to a restarted fuse-update: answered before
+      counters_.add("scans_already_corrected");
+      return;
+    }
     scans_.push_back(msg);
     if (scans_.size() > kMaxQueuedScans) {
       scans_.pop_front();

@@ -78,6 +78,8 @@ class UpdateService {
   std::unique_ptr<transport::Subscriber<fuse_msgs::MapChunk>> chunk_sub_;
   std::unique_ptr<transport::Subscriber<fuse_msgs::MapStatus>> status_sub_;
   std::unique_ptr<transport::Subscriber<fuse_msgs::LidarScan>> scan_sub_;
+  std::unique_ptr<transport::Subscriber<fuse_msgs::StateEstimate>> corrected_sub_;
+  double corrected_t_ = -1.0;  ///< newest state/corrected time: older scans were answered before
   std::unique_ptr<HealthReporter> health_;
 };
 

@@ -28,7 +28,9 @@ void InitialCovarianceConfig::load(ConfigNode& node) {
 
 void DivergenceConfig::load(ConfigNode& node) {
   node.get("max_position_std", max_position_std).get("max_scans_without_constraints", max_scans_without_constraints);
-  node.get("max_imu_gap", max_imu_gap);
+  node.get("max_imu_gap", max_imu_gap).get("gap_accel_std", gap_accel_std).get("gap_gyro_std", gap_gyro_std);
+  node.check(std::isfinite(gap_accel_std) && gap_accel_std >= 0.0, "gap_accel_std", "must be finite and >= 0");
+  node.check(std::isfinite(gap_gyro_std) && gap_gyro_std >= 0.0, "gap_gyro_std", "must be finite and >= 0");
   node.check(max_position_std > 0.0, "max_position_std", "must be positive");
   node.check(max_scans_without_constraints >= 1, "max_scans_without_constraints", "must be >= 1");
   node.check(max_imu_gap > 0.0, "max_imu_gap", "must be positive");

@@ -18,10 +18,16 @@ void StateTracker::ingest(const ImuSample& imu) {
     counters_.count("imu_time_not_increasing", "IMU sample at t=" + std::to_string(imu.t) + " not after the previous one, refused");
     return;
   }
-  if (last_imu_t_ >= 0.0 && imu.t - last_imu_t_ > config_.divergence.max_imu_gap) {
-    counters_.count("imu_gap", "IMU data gap of " + std::to_string(imu.t - last_imu_t_) + " s before t=" + std::to_string(imu.t));
+  const double gap = last_imu_t_ >= 0.0 ? imu.t - last_imu_t_ : 0.0;
+  const bool flagged = gap > config_.divergence.max_imu_gap;
+  if (flagged) {
+    counters_.count("imu_gap", "IMU data gap of " + std::to_string(gap) + " s before t=" + std::to_string(imu.t));
   }
   last_imu_t_ = imu.t;
+  if (flagged && history_.initialised()) {
+    coast_across_gap(imu);
+    return;
+  }
   if (!history_.initialised()) {
     if (auto x0 = initializer_.add(imu, config_.gravity_magnitude)) initialise(*x0, imu);
     return;
@@ -50,6 +56,33 @@ void StateTracker::initialise(const NavState& x0_in, const ImuSample& imu) {
   history_.reset(imu.t, x0, P, imu);
   logger("estimator")->info("initialised at t={:.3f}: gyro bias [{:.5f} {:.5f} {:.5f}] rad/s after {} restarts", imu.t,
                             x0.bg.x(), x0.bg.y(), x0.bg.z(), initializer_.restarts());
+}
+
+void StateTracker::coast_across_gap(const ImuSample& imu) {
+  // Nothing measured the motion during the gap: coast at constant velocity (the specific force
+  // that cancels gravity, f = R⊤(−g) + b_a) with the mean of the rotation rates at both ends,
+  // then take the new sample as usual, and grow the covariance by the unmodelled motion.
+  constexpr double kLastStep = 0.001;  // s: the real sample closes the gap over the last millisecond
+  const StateHistory::Entry& before = history_.newest();
+  const double gap = imu.t - before.t;
+  ImuSample coast;
+  coast.t = before.t;
+  coast.gyro = 0.5 * (before.gyro + imu.gyro);
+  coast.accel = before.x.R.transpose() * (-before.x.g) + before.x.ba;
+  history_.add_imu(coast);  // same instant: replaces the held measurement
+  coast.t = imu.t - kLastStep;
+  history_.add_imu(coast);
+  history_.add_imu(imu);
+  history_.inflate_newest(gap_noise(gap));
+}
+
+StateCovariance StateTracker::gap_noise(double dt) const {
+  const double sa = config_.divergence.gap_accel_std, sw = config_.divergence.gap_gyro_std;
+  StateCovariance Q = StateCovariance::Zero();
+  Q.block<3, 3>(Idx::kPos, Idx::kPos).diagonal().setConstant(std::pow(0.5 * sa * dt * dt, 2));
+  Q.block<3, 3>(Idx::kVel, Idx::kVel).diagonal().setConstant(std::pow(sa * dt, 2));
+  Q.block<3, 3>(Idx::kRot, Idx::kRot).diagonal().setConstant(std::pow(sw * dt, 2));
+  return Q;
 }
 
 void StateTracker::restore(double t, const NavState& x, const StateCovariance& P, const ImuSample& held) {

@@ -23,8 +23,10 @@ std::map<std::string, TopicQos> make_table() {
   // IMU at up to ~400 Hz: 2000 samples (~5 s) stay with the writer, so a restarted fuse-state
   // re-propagates from the buffered IMU instead of waiting for new data.
   t[topics::kImu] = qos(kReliable, kTransientLocal, 2000);
-  // Scans are large (up to MBs); a few in flight absorb a slow reader, old ones are useless.
-  t[topics::kLidarScan] = qos(kReliable, kVolatile, 5);
+  // Scans are large (up to MBs). Transient-local with 3 s of them at 10 Hz: scans published
+  // while a restarted fuse-ingest is still being discovered arrive once it is (a restarted
+  // fuse-update skips the ones fuse-state has already corrected).
+  t[topics::kLidarScan] = qos(kReliable, kTransientLocal, 30);
   // High-rate odometry: a lost sample is superseded by the next one; no retransmissions.
   t[topics::kOdometry] = qos(kBestEffort, kVolatile, 10);
   // The latest corrected state: a late joiner gets it at once.

@@ -53,6 +53,11 @@ struct DivergenceConfig {
   double max_position_std = 50.0;       ///< m: larger means the filter lost track
   int max_scans_without_constraints = 50;
   double max_imu_gap = 0.1;             ///< s: a larger gap between IMU samples is flagged (data gap)
+  /// Unmodelled motion across a data gap of length Δt (nothing measured it): the covariance grows
+  /// by (½σ_a Δt²)² in position, (σ_a Δt)² in velocity and (σ_ω Δt)² in rotation, so the LiDAR
+  /// updates after the gap may pull the state back instead of trusting the coasted prediction.
+  double gap_accel_std = 1.0;           ///< σ_a, m/s²
+  double gap_gyro_std = 0.5;            ///< σ_ω, rad/s
   void load(ConfigNode& node);
 };
 

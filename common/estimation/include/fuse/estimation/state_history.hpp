@@ -55,6 +55,8 @@ class StateHistory {
 
   /// Propagates the newest entry to imu.t with the average of the held and the new measurement.
   void add_imu(const ImuSample& imu);
+  /// Adds Q to the newest entry's covariance (unmodelled motion, e.g. across a data gap).
+  void inflate_newest(const StateCovariance& Q) { entries_.back().P += Q; }
   /// Makes sure an entry exists at time t (t ≥ oldest; past the newest it extrapolates with the
   /// held measurement). Returns false when t is older than the history.
   bool ensure_entry(double t);

@@ -31,6 +31,10 @@ class StateTracker {
 
  private:
   void initialise(const NavState& x0, const ImuSample& imu);
+  /// Propagates across a data gap up to the sample after it (constant velocity).
+  void coast_across_gap(const ImuSample& imu);
+  /// Covariance of the motion nobody measured during a data gap of dt seconds.
+  StateCovariance gap_noise(double dt) const;
 
   EstimatorConfig config_;
   StaticInitializer initializer_;

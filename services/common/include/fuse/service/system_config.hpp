@@ -22,15 +22,16 @@ struct IngestConfig {
 };
 
 struct StateServiceConfig {
-  /// After a (re)start, wait this long for a transient-local correction before falling back to
-  /// static initialisation from the IMU.
-  double recovery_wait_s = 1.0;
+  /// After a (re)start, wait for fuse-update to be discovered (its writer holds the last
+  /// corrections, transient-local), at most this long, before falling back to static
+  /// initialisation from the IMU.
+  double recovery_wait_s = 3.0;
   double imu_buffer_s = 10.0;  ///< raw IMU kept for re-propagation after a recovered correction
   void load(ConfigNode& node);
 };
 
 struct UpdateServiceConfig {
-  double history_deadline_s = 1.0;  ///< give up on a scan when fuse-state cannot cover it by then
+  double history_deadline_s = 3.0;  ///< give up on a scan when fuse-state cannot cover it by then
   double map_sync_timeout_s = 3.0;  ///< at start-up: wait this long for the map server's chunks
   double resend_after_s = 1.0;      ///< re-send unacknowledged observations older than this
   std::size_t max_unacked = 2000;   ///< observations kept for re-sending (oldest dropped, counted)
