@@ -159,23 +159,25 @@ TEST(CrossVendor, RpcDeadlineWithoutServerIsUnavailable) {
 TEST(CrossVendor, MalformedSamplesAreCountedOnBothSides) {
   auto fast = make_participant(config("fastdds", 37), "fast");
   auto cyclone = make_participant(config("cyclonedds", 37), "cyclone");
-  Inbox<fuse_msgs::Health> fast_in, cyclone_in;
-  Subscriber<fuse_msgs::Health> fast_sub(*fast, topics::kHealth, std::ref(fast_in));
-  Subscriber<fuse_msgs::Health> cyclone_sub(*cyclone, topics::kHealth, std::ref(cyclone_in));
-  const TypeSupport type = type_support<fuse_msgs::Health>();
-  auto fast_raw = fast->create_writer(topics::kHealth, type, topic_qos(topics::kHealth));
-  auto cyclone_raw = cyclone->create_writer(topics::kHealth, type, topic_qos(topics::kHealth));
+  // The IMU topic keeps 2000 samples: both garbage samples may arrive at once (a depth-1 reader
+  // would legitimately keep only the newer one).
+  Inbox<fuse_msgs::ImuSample> fast_in, cyclone_in;
+  Subscriber<fuse_msgs::ImuSample> fast_sub(*fast, topics::kImu, std::ref(fast_in));
+  Subscriber<fuse_msgs::ImuSample> cyclone_sub(*cyclone, topics::kImu, std::ref(cyclone_in));
+  const TypeSupport type = type_support<fuse_msgs::ImuSample>();
+  auto fast_raw = fast->create_writer(topics::kImu, type, topic_qos(topics::kImu));
+  auto cyclone_raw = cyclone->create_writer(topics::kImu, type, topic_qos(topics::kImu));
   // Every reader matches both writers (its own participant's included).
   ASSERT_TRUE(wait_until([&] {
     return fast_raw->matched_readers() == 2 && cyclone_raw->matched_readers() == 2 && fast_sub.matched() == 2 &&
            cyclone_sub.matched() == 2;
   }));
-  const Bytes garbage{0x00, 0x01, 0x00, 0x00, 0x40, 0x00, 0x00, 0x00, 'x'};  // string of 64 in 1 byte
+  const Bytes garbage{0x00, 0x01, 0x00, 0x00, 0xFF, 0xFF, 0xFF, 0xFF, 0x12};  // a double cut short
   EXPECT_TRUE(fast_raw->write(garbage));
   EXPECT_TRUE(cyclone_raw->write(garbage));
   EXPECT_TRUE(wait_until([&] { return fast_sub.malformed() == 2 && cyclone_sub.malformed() == 2; }))
       << "fastdds reader counted " << fast_sub.malformed() << ", cyclonedds reader " << cyclone_sub.malformed();
-  EXPECT_TRUE(fast_raw->write(serialize(make_health(1))));
+  EXPECT_TRUE(fast_raw->write(serialize(make_imu(1))));
   EXPECT_TRUE(fast_in.wait_for(1));
   EXPECT_TRUE(cyclone_in.wait_for(1));
   EXPECT_EQ(fast_sub.received(), 1u);
