@@ -114,7 +114,18 @@ void run_pair(const char* self, const std::string& vendor, const std::string& ec
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
     const std::string label = vendor == echo_vendor ? vendor : vendor + " -> " + echo_vendor;
-    if (ping->matched_readers() == 0 || pong->matched_writers() == 0) {
+    // Matched here does not yet mean matched there: ping until the first pong comes back.
+    bool live = false;
+    const Bytes hello = make_payload(64);
+    while (!live && Clock::now() < deadline) {
+      std::unique_lock<std::mutex> lock(mutex);
+      const std::size_t before = pongs;
+      lock.unlock();
+      ping->write(hello);
+      lock.lock();
+      live = cv.wait_for(lock, std::chrono::milliseconds(200), [&] { return pongs > before; });
+    }
+    if (!live) {
       std::printf("%-24s echo process not discovered\n", label.c_str());
     } else {
       struct Size {
