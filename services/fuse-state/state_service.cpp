@@ -15,6 +15,8 @@ namespace {
 constexpr const char* kName = "fuse-state";
 /// Requests further than this from the newest state are refused as absurd (not merely too old).
 constexpr double kAbsurdTimeSpan = 86400.0;
+/// Times beyond this (year 2286 as UNIX seconds) are refused whatever the state (as the client does).
+constexpr double kMaxQueryTime = 1e10;
 /// A history slice covers one scan: longer requests are refused.
 constexpr double kMaxHistorySpan = 1.0;
 
@@ -226,9 +228,9 @@ void StateService::on_query(const fuse_msgs::QueryRequest& req, fuse_msgs::Query
     }
     t = tracker_.history().newest().t;
   }
-  if (!std::isfinite(t) || t < 0.0) {
+  if (!std::isfinite(t) || t < 0.0 || t > kMaxQueryTime) {
     counters_.add("query_bad_request");
-    set_error(fuse_msgs::RPC_BAD_REQUEST, "query time must be finite and non-negative", rep);
+    set_error(fuse_msgs::RPC_BAD_REQUEST, "query time must be finite, non-negative and below 1e10 s", rep);
     return;
   }
   if (have_state && std::abs(t - tracker_.history().newest().t) > kAbsurdTimeSpan) {
