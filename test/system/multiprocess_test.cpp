@@ -1,6 +1,7 @@
 // The system over DDS, as real processes on loopback (DESIGN §2 restart rules):
 //   - lockstep equivalence: the four services replaying a recording give the trajectory of the
-//     single-process fuse-run (largest position difference ≤ 1 mm);
+//     single-process fuse-run (largest position difference ≤ 1 mm), over Fast DDS, over Cyclone
+//     DDS, and with services on different vendors;
 //   - restarts: fuse-map, fuse-update and fuse-state are each SIGKILLed in the middle of a
 //     lockstep replay and started again: the run completes, what the map server acknowledged
 //     before the kill is in the map afterwards, and the error stays close to the uninterrupted
@@ -207,6 +208,28 @@ TEST_F(MultiProcess, LockstepReplayGivesTheSingleProcessTrajectory) {
   EXPECT_GE(common + 2, single_->trajectory.size()) << "scans missing from the multi-process trajectory";
   EXPECT_LE(worst, 1e-3) << "largest position difference to fuse-run";
   RecordProperty("max_difference_m", std::to_string(worst));
+}
+
+TEST_F(MultiProcess, LockstepReplayOverCycloneDdsGivesTheSameTrajectory) {
+  Pipeline p("lockstep-cyclone", 66, {"--set", "transport.vendor=cyclonedds"});
+  const auto multi = lockstep_run(p);
+  std::size_t common = 0;
+  EXPECT_LE(max_difference(single_->trajectory, multi, &common), 1e-3);
+  EXPECT_GE(common + 2, single_->trajectory.size());
+}
+
+TEST_F(MultiProcess, ServicesOnDifferentVendorsWorkTogether) {
+  // fuse-map and fuse-state on Cyclone DDS, fuse-update and fuse-ingest on Fast DDS.
+  Pipeline p("mixed-vendors", 67);
+  p.start("fuse-map", kData, {"--set", "transport.vendor=cyclonedds"});
+  p.start("fuse-state", kData, {"--set", "transport.vendor=cyclonedds"});
+  p.start("fuse-update");
+  p.start("fuse-ingest", kData, {"--mode", "lockstep"});
+  EXPECT_EQ(p.wait_ingest(180s), 0) << p.log("fuse-ingest", 1);
+  EXPECT_TRUE(p.stop_all());
+  std::size_t common = 0;
+  EXPECT_LE(max_difference(single_->trajectory, eval::read_tum(p.trajectory()), &common), 1e-3);
+  EXPECT_GE(common + 2, single_->trajectory.size());
 }
 
 // Bound for the interrupted runs: the uninterrupted error plus 5 cm. A killed fuse-update or
