@@ -198,7 +198,7 @@ class MultiProcess : public ::testing::Test {
       EXPECT_TRUE(p.wait_for_lines(at, 60s)) << "the replay did not reach " << at << " scans";
       during();
     }
-    EXPECT_EQ(p.wait_ingest(180s), 0) << p.log("fuse-ingest", 1);
+    EXPECT_EQ(p.wait_ingest(3600s), 0) << p.log("fuse-ingest", 1);
     EXPECT_TRUE(p.stop_all());
     return eval::read_tum(p.trajectory());
   }
@@ -234,7 +234,7 @@ TEST_F(MultiProcess, ServicesOnDifferentVendorsWorkTogether) {
   p.start("fuse-state", kData, {"--set", "transport.vendor=cyclonedds"});
   p.start("fuse-update");
   p.start("fuse-ingest", kData, {"--mode", "lockstep"});
-  EXPECT_EQ(p.wait_ingest(180s), 0) << p.log("fuse-ingest", 1);
+  EXPECT_EQ(p.wait_ingest(3600s), 0) << p.log("fuse-ingest", 1);
   EXPECT_TRUE(p.stop_all());
   std::size_t common = 0;
   EXPECT_LE(max_difference(single_->trajectory, eval::read_tum(p.trajectory()), &common), 1e-3);
