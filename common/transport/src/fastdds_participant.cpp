@@ -146,6 +146,12 @@ class Context {
     rtps::Locator_t peer;
     rtps::IPLocator::setIPv4(peer, 127, 0, 0, 1);  // port 0: every participant id in range
     pqos.wire_protocol().builtin.initialPeersList.push_back(peer);
+    // A participant that joins late (a restarted service, a short-lived CLI) is answered at the
+    // others' next periodic announcement: 0.5 s instead of the default 3 s bounds that wait, and
+    // a 5 s lease lets the others forget a killed process sooner (loopback traffic is tiny).
+    auto& discovery = pqos.wire_protocol().builtin.discovery_config;
+    discovery.leaseDuration_announcementperiod = eprosima::fastrtps::Duration_t(0, 500000000);
+    discovery.leaseDuration = eprosima::fastrtps::Duration_t(5, 0);
 
     auto* factory = dds::DomainParticipantFactory::get_instance();
     participant_ = factory->create_participant(config.domain_id, pqos);

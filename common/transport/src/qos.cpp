@@ -41,8 +41,9 @@ std::map<std::string, TopicQos> make_table() {
   t[topics::kMapChunk] = qos(kReliable, kTransientLocal, 1);
   // Latest map status (epoch, mode, acked sequence) for late joiners.
   t[topics::kMapStatus] = qos(kReliable, kTransientLocal, 1);
-  // Latest health of every writer (one writer per service instance) for a late monitor.
-  t[topics::kHealth] = qos(kReliable, kTransientLocal, 1);
+  // Health of every writer (one per service instance) for a late monitor. Keyless, so a reader's
+  // depth is shared by all writers: 16 keeps two heartbeats arriving together from dropping one.
+  t[topics::kHealth] = qos(kReliable, kTransientLocal, 16);
   // Request/reply: reliable, volatile (a late server must not answer stale requests), 32 deep
   // so a burst of calls from several clients is not dropped.
   for (const char* service : {services::kQuery, services::kHistory, services::kMapControl}) {
