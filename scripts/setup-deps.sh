@@ -12,7 +12,7 @@ $SUDO apt-get install -y -q --no-install-recommends \
   libfastrtps-dev libfastcdr-dev fastddsgen fastdds-tools \
   cyclonedds-dev cyclonedds-tools \
   libprotobuf-dev protobuf-compiler \
-  libspdlog-dev libfmt-dev libyaml-cpp-dev \
+  libspdlog-dev libfmt-dev libyaml-cpp-dev libjsoncpp-dev \
   libgtest-dev libgmock-dev libbenchmark-dev \
   liblz4-dev libzstd-dev
 # Node.js is only used by the interoperability test (npm packages that read our MCAP files).
