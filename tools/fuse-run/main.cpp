@@ -19,13 +19,14 @@ constexpr int kExitInput = 1, kExitUsage = 2, kExitDiverged = 3;
 
 void usage(std::ostream& os) {
   os << "usage: fuse-run --config FILE --input INPUT --out DIR [--set key=value]... [--log-level LEVEL]\n"
+        "                [--load-map SNAPSHOT] [--save-map SNAPSHOT]\n"
         "  INPUT: MCAP recording or sequence directory\n"
         "  --set: override a config value, e.g. --set estimator.preprocess.deskew=false\n";
 }
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string config_file, input, out_dir, level = "info";
+  std::string config_file, input, out_dir, level = "info", load_map, save_map;
   std::vector<std::string> overrides;
   std::vector<std::string> args(argv + 1, argv + argc);
   for (std::size_t i = 0; i < args.size(); ++i) {
@@ -51,8 +52,13 @@ int main(int argc, char** argv) {
       overrides.push_back(*v);
     } else if (a == "--log-level" && (v = value("--log-level"))) {
       level = *v;
+    } else if (a == "--load-map" && (v = value("--load-map"))) {
+      load_map = *v;
+    } else if (a == "--save-map" && (v = value("--save-map"))) {
+      save_map = *v;
     } else {
-      if (v == nullptr && (a == "--config" || a == "--input" || a == "--out" || a == "--set" || a == "--log-level")) {
+      if (v == nullptr && (a == "--config" || a == "--input" || a == "--out" || a == "--set" || a == "--log-level" ||
+                           a == "--load-map" || a == "--save-map")) {
         return kExitUsage;
       }
       std::cerr << "fuse-run: unknown argument '" << a << "'\n";
@@ -78,6 +84,8 @@ int main(int argc, char** argv) {
     std::cerr << "fuse-run: config error: " << e.what() << "\n";
     return kExitUsage;
   }
+  config.load_map = load_map;
+  config.save_map = save_map;
   const fuse::RunSummary s = fuse::run_offline(config, input, out_dir);
   std::cout << "scans: " << s.scans << "\nscans_updated: " << s.scans_updated << "\nimu_samples: " << s.imu_samples
             << "\nscan_time_mean_ms: " << s.mean_ms << "\nscan_time_p95_ms: " << s.p95_ms

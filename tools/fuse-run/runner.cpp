@@ -8,6 +8,7 @@
 #include "fuse/core/logging.hpp"
 #include "fuse/eval/trajectory.hpp"
 #include "fuse/io/sensor_source.hpp"
+#include "fuse/map/map_storage.hpp"
 
 namespace fuse {
 
@@ -87,6 +88,19 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
               T->translation().x(), T->translation().y(), T->translation().z());
   }
   Estimator estimator(config.estimator);
+  if (!config.load_map.empty()) {
+    PointMap map;
+    MapMeta meta;
+    const LoadReport report = MapStorage::read_snapshot_file(config.load_map, map, meta);
+    if (!report.snapshot_ok || map.num_points() == 0) {
+      summary.error = "cannot load map '" + config.load_map + "'";
+      return summary;
+    }
+    std::vector<Eigen::Vector3f> points;
+    map.for_each_chunk([&](const PointChunk& c) { points.insert(points.end(), c.points.begin(), c.points.end()); });
+    estimator.load_map(points);
+    log->info("map {} loaded: {} points; map mode {}", config.load_map, points.size(), config.estimator.map.mode);
+  }
   io::SensorEvent ev;
   try {
     while (source->next(ev)) {
@@ -112,6 +126,17 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
     summary.error = std::string("estimator diverged: ") + e.what();
   } catch (const io::InputError& e) {
     summary.error = std::string("input error: ") + e.what();
+  }
+  if (!config.save_map.empty() && summary.error.empty()) {
+    PointMap map;
+    std::vector<Eigen::Vector3f> points;
+    estimator.map().for_each_point([&](const Eigen::Vector3f& p) { points.push_back(p); });
+    map.insert(points);
+    MapMeta meta;
+    meta.min_point_distance = config.estimator.map.min_point_distance;
+    meta.mode = config.estimator.map.mode;
+    MapStorage::write_snapshot_file(config.save_map, map, meta);
+    log->info("map saved to {}: {} points", config.save_map, map.num_points());
   }
   summary.input_rejected = source->stats().rejected;
   summary.estimator_counts = estimator.counters();

@@ -14,6 +14,9 @@ namespace fuse {
 
 struct RunnerConfig {
   EstimatorConfig estimator;
+  /// Map files (command line, not YAML): a snapshot to start from (e.g. to localize on it with
+  /// estimator.map.mode=localization) and one to write the final map to. Empty: none.
+  std::string load_map, save_map;
   void load(ConfigNode& root);
 };
 

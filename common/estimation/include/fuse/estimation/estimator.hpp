@@ -35,6 +35,11 @@ class Estimator {
   StateQuery query(double t) const { return tracker_.history().query(t); }
 
   bool initialised() const { return tracker_.initialised(); }
+  /// Replaces the map by these world-frame points (a saved map to localize on or extend).
+  void load_map(const std::vector<Eigen::Vector3f>& points) {
+    updater_.reset_map();
+    updater_.map().insert(points);
+  }
   const SpatialIndex& map() const { return updater_.map(); }
   /// Counts of refused and flagged input, from both sides.
   std::map<std::string, std::uint64_t> counters() const;
