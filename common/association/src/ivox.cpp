@@ -113,15 +113,17 @@ void IVox::insert(const std::vector<Eigen::Vector3f>& world_points) {
       voxels_[v].points.reserve(8);
       slots_[s] = Slot{key, v};
       ++num_voxels_;
-      if (static_cast<double>(num_voxels_) > kMaxLoad * static_cast<double>(slots_.size())) {
-        rebuild_table(slots_.size() * 2);
-      }
     }
     Voxel& vox = voxels_[v];
     vox.last_touch = clock_;
     if (vox.points.size() < config_.max_points_per_voxel) {
       vox.points.push_back(p);
       ++num_points_;
+    }
+    // Grow only now: rebuild_table() skips voxel records without points, so a voxel created by
+    // this point must hold it first (else the next point of its key would create a duplicate).
+    if (static_cast<double>(num_voxels_) > kMaxLoad * static_cast<double>(slots_.size())) {
+      rebuild_table(slots_.size() * 2);
     }
   }
 }

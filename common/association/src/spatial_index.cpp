@@ -1,6 +1,8 @@
 #include "fuse/association/spatial_index.hpp"
 
 #include "fuse/association/ivox.hpp"
+#include "fuse/association/kdtree_index.hpp"
+#include "fuse/association/voxel_grid_index.hpp"
 
 #include <cmath>
 
@@ -9,7 +11,8 @@ namespace fuse {
 void SpatialIndexConfig::load(ConfigNode& node) {
   node.get("type", type).get("voxel_size", voxel_size).get("neighborhood", neighborhood);
   node.get("max_voxels", max_voxels).get("max_points_per_voxel", max_points_per_voxel);
-  node.check(type == "ivox", "type", "unknown spatial index '" + type + "' (known: ivox)");
+  node.check(type == "ivox" || type == "kdtree" || type == "voxel_grid", "type",
+             "unknown spatial index '" + type + "' (known: ivox, kdtree, voxel_grid)");
   node.check(std::isfinite(voxel_size) && voxel_size >= 0.05 && voxel_size <= 10.0, "voxel_size", "must be in [0.05, 10] m");
   node.check(neighborhood == "center" || neighborhood == "nearby6" || neighborhood == "nearby18" ||
                  neighborhood == "nearby26",
@@ -21,7 +24,10 @@ void SpatialIndexConfig::load(ConfigNode& node) {
 
 std::unique_ptr<SpatialIndex> make_spatial_index(const SpatialIndexConfig& config) {
   if (config.type == "ivox") return std::make_unique<IVox>(config);
-  throw ConfigError("spatial_index.type: unknown spatial index '" + config.type + "'");
+  if (config.type == "kdtree") return std::make_unique<KdTreeIndex>(config);
+  if (config.type == "voxel_grid") return std::make_unique<VoxelGridIndex>(config);
+  throw ConfigError("spatial_index.type: unknown spatial index '" + config.type +
+                    "' (known: ivox, kdtree, voxel_grid)");
 }
 
 }  // namespace fuse

@@ -1,5 +1,7 @@
 // Spatial role (DESIGN §1): the map's nearest-neighbour index. Implementations are chosen by
-// config (make_spatial_index) and tested against a brute-force oracle.
+// config (make_spatial_index) and tested against a brute-force oracle: ivox (ivox.hpp, hash
+// voxels with a fixed neighbourhood and LRU eviction), kdtree (kdtree_index.hpp, incremental
+// kd-tree, exact) and voxel_grid (voxel_grid_index.hpp, hash voxels searched in rings, exact).
 #pragma once
 
 #include <Eigen/Core>
@@ -35,11 +37,11 @@ class SpatialIndex {
 };
 
 struct SpatialIndexConfig {
-  std::string type = "ivox";           ///< ivox (more to come: kdtree, voxel_grid)
-  double voxel_size = 0.5;             ///< iVox cell edge, m
-  std::string neighborhood = "nearby18";  ///< center | nearby6 | nearby18 | nearby26
-  std::size_t max_voxels = 1000000;    ///< LRU capacity (least recently touched voxels evicted)
-  std::size_t max_points_per_voxel = 64;  ///< refuse further inserts into a full voxel
+  std::string type = "ivox";           ///< ivox | kdtree | voxel_grid
+  double voxel_size = 0.5;             ///< cell edge of ivox and voxel_grid, m (kdtree: unused)
+  std::string neighborhood = "nearby18";  ///< ivox only: center | nearby6 | nearby18 | nearby26
+  std::size_t max_voxels = 1000000;    ///< ivox only: LRU capacity (least recently touched voxels evicted)
+  std::size_t max_points_per_voxel = 64;  ///< ivox, voxel_grid: refuse further inserts into a full voxel
   void load(ConfigNode& node);
 };
 
