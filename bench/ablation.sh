@@ -18,9 +18,10 @@ declare -A VARIANTS=(
   [full]=""
   [no_degeneracy_aware_update]="estimator.update.degeneracy.enabled=false"
   [no_residual_screening]="estimator.association.screening=false"
+  [no_covariance_propagation]="estimator.imu_noise.propagate_covariance=false"
   [no_deskew]="estimator.preprocess.deskew=false"
 )
-ORDER=(full no_degeneracy_aware_update no_residual_screening no_deskew)
+ORDER=(full no_degeneracy_aware_update no_residual_screening no_covariance_propagation no_deskew)
 mkdir -p "$OUT"
 echo "| variant | seed | end-to-end m | ATE m | RPE(10 m) m | scan ms mean | status |"
 echo "|---|---|---|---|---|---|---|"

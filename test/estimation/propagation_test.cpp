@@ -204,18 +204,27 @@ TEST(Propagation, CovarianceMatchesMonteCarlo) {
   EXPECT_GE(min_eig, -1e-12 * P.diagonal().maxCoeff());
 }
 
-// The ablation switch: propagate_covariance = false leaves P untouched (the state still moves).
-TEST(Propagation, CovarianceSwitchOffKeepsP) {
+// The ablation switch: propagate_covariance = false replaces F·P·Fᵀ + Q by a fixed prior, the
+// same after every step whatever came before (the state still moves): the configured diagonal
+// carried over one scan interval, so position and velocity are coupled by T·σ_v².
+TEST(Propagation, CovarianceSwitchOffGivesTheFixedPrior) {
   std::mt19937 rng(14);
   ImuNoiseConfig noise;
   noise.propagate_covariance = false;
   NavState x = test::random_state(rng);
   const NavState x0 = x;
-  const StateCovariance P0 = test::random_covariance(rng, 0.1);
-  StateCovariance P = P0;
-  for (int k = 0; k < 100; ++k) propagate(x, &P, Eigen::Vector3d(0.1, 0.2, 0.3), Eigen::Vector3d(1, 2, 3), kDt, noise);
-  EXPECT_EQ(P, P0);
-  EXPECT_GT((x.p - x0.p).norm(), 0.01);
+  StateCovariance P = test::random_covariance(rng, 0.1);
+  propagate(x, &P, Eigen::Vector3d(0.1, 0.2, 0.3), Eigen::Vector3d(1, 2, 3), kDt, noise);
+  const StateCovariance first = P;
+  P = test::random_covariance(rng, 0.5);  // whatever the posterior was
+  propagate(x, &P, Eigen::Vector3d(0.1, 0.2, 0.3), Eigen::Vector3d(1, 2, 3), kDt, noise);
+  const double T = noise.fixed_prior_interval, sv = noise.fixed_velocity_std, sp = noise.fixed_position_std;
+  EXPECT_NEAR(P(Idx::kPos, Idx::kPos), sp * sp + sv * sv * T * T, 1e-12);
+  EXPECT_NEAR(P(Idx::kPos, Idx::kVel), sv * sv * T, 1e-12);
+  EXPECT_NEAR(P(Idx::kVel, Idx::kVel), first(Idx::kVel, Idx::kVel), 1e-3 * first(Idx::kVel, Idx::kVel));
+  EXPECT_GT((x.p - x0.p).norm(), 1e-4);
+  const double min_eig = Eigen::SelfAdjointEigenSolver<StateCovariance>(P).eigenvalues().minCoeff();
+  EXPECT_GE(min_eig, -1e-12);
 }
 
 // Noise densities from config: unknown keys and negative densities are refused.

@@ -8,7 +8,22 @@ void ImuNoiseConfig::load(ConfigNode& node) {
       .get("gyro_bias_random_walk", gyro_bias_random_walk)
       .get("accel_bias_random_walk", accel_bias_random_walk)
       .get("inflation", inflation)
-      .get("propagate_covariance", propagate_covariance);
+      .get("propagate_covariance", propagate_covariance)
+      .get("fixed_position_std", fixed_position_std)
+      .get("fixed_rotation_std", fixed_rotation_std)
+      .get("fixed_velocity_std", fixed_velocity_std)
+      .get("fixed_gyro_bias_std", fixed_gyro_bias_std)
+      .get("fixed_accel_bias_std", fixed_accel_bias_std)
+      .get("fixed_prior_interval", fixed_prior_interval);
+  node.check(std::isfinite(fixed_prior_interval) && fixed_prior_interval > 0.0 && fixed_prior_interval <= 1.0,
+             "fixed_prior_interval", "must be in (0, 1] s");
+  for (const auto& [key, value] : {std::pair<const char*, double>{"fixed_position_std", fixed_position_std},
+                                   {"fixed_rotation_std", fixed_rotation_std},
+                                   {"fixed_velocity_std", fixed_velocity_std},
+                                   {"fixed_gyro_bias_std", fixed_gyro_bias_std},
+                                   {"fixed_accel_bias_std", fixed_accel_bias_std}}) {
+    node.check(std::isfinite(value) && value > 0.0, key, "must be a positive finite standard deviation");
+  }
   for (const auto& [key, value] :
        {std::pair<const char*, double>{"gyro_noise_density", gyro_noise_density},
         {"accel_noise_density", accel_noise_density},
@@ -51,6 +66,31 @@ void propagate(NavState& x, StateCovariance* P, const Eigen::Vector3d& gyro, con
     cov.block<3, 3>(Idx::kBg, Idx::kBg) += qbg * Eigen::Matrix3d::Identity();
     cov.block<3, 3>(Idx::kBa, Idx::kBa) += qba * Eigen::Matrix3d::Identity();
     cov = 0.5 * (cov + cov.transpose()).eval();
+  } else if (P != nullptr) {
+    // Ablation "without covariance propagation": every update starts from the same fixed prior
+    // (keeping the last posterior instead makes the filter ever more confident until it
+    // diverges). The fixed prior is a diagonal D carried over one scan interval T by the
+    // transition at the current state, F_T·D·F_Tᵀ: without its position–velocity and
+    // attitude–velocity couplings no LiDAR update could correct the velocity at all.
+    StateCovariance& cov = *P;
+    const std::pair<int, double> blocks[] = {{Idx::kPos, noise.fixed_position_std},
+                                             {Idx::kRot, noise.fixed_rotation_std},
+                                             {Idx::kVel, noise.fixed_velocity_std},
+                                             {Idx::kBg, noise.fixed_gyro_bias_std},
+                                             {Idx::kBa, noise.fixed_accel_bias_std}};
+    StateCovariance D = cov;
+    for (const auto& [idx, std] : blocks) {
+      D.middleRows<3>(idx).setZero();
+      D.middleCols<3>(idx).setZero();
+    }
+    for (const auto& [idx, std] : blocks) D.block<3, 3>(idx, idx).diagonal().setConstant(std * std);
+    const double T = noise.fixed_prior_interval;
+    StateCovariance F = StateCovariance::Identity();
+    F.block<3, 3>(Idx::kPos, Idx::kVel) = Eigen::Matrix3d::Identity() * T;
+    F.block<3, 3>(Idx::kRot, Idx::kBg) = -Eigen::Matrix3d::Identity() * T;
+    F.block<3, 3>(Idx::kVel, Idx::kRot) = -x.R * so3::hat(a) * T;
+    F.block<3, 3>(Idx::kVel, Idx::kBa) = -x.R * T;
+    cov = F * D * F.transpose();
   }
 
   x.p += x.v * dt + 0.5 * a_W * dt * dt;

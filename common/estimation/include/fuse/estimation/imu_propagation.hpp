@@ -19,7 +19,15 @@ struct ImuNoiseConfig {
   double accel_bias_random_walk = 5.0e-4;  ///< m/s³/√Hz
   /// Multiplies every density: covers unmodelled effects (vibration, integration error).
   double inflation = 1.0;
-  bool propagate_covariance = true;  ///< ablation switch: false keeps P at its prior value
+  /// Ablation switch. false: no F·P·Fᵀ + G·Q·Gᵀ; the prior of every update is instead the fixed
+  /// covariance below (pose, velocity and bias blocks; others keep their values).
+  bool propagate_covariance = true;
+  double fixed_position_std = 0.02;     ///< m
+  double fixed_rotation_std = 0.005;    ///< rad
+  double fixed_velocity_std = 0.1;      ///< m/s
+  double fixed_gyro_bias_std = 1e-4;    ///< rad/s
+  double fixed_accel_bias_std = 1e-3;   ///< m/s²
+  double fixed_prior_interval = 0.1;    ///< s: the scan period the fixed prior is carried over
 
   void load(ConfigNode& node);
 };
