@@ -14,6 +14,16 @@
 namespace fuse {
 namespace {
 
+NanoConfig nano_config(double step, int max_iterations, double kl_tolerance, bool cubature, bool adaptive = true) {
+  NanoConfig c;
+  c.step = step;
+  c.max_iterations = max_iterations;
+  c.kl_tolerance = kl_tolerance;
+  c.cubature = cubature;
+  c.adaptive_cubature = adaptive;
+  return c;
+}
+
 double min_eigenvalue(const Eigen::MatrixXd& M) {
   return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(M, Eigen::EigenvaluesOnly).eigenvalues()(0);
 }
@@ -41,7 +51,7 @@ TEST(Nano, AtTheMeanWithFullStepsConvergesToTheIeskf) {
   c.max_iterations = 30;
   c.convergence_translation = 1e-10;
   c.convergence_rotation = 1e-10;
-  c.nano = NanoConfig{1.0, 30, 1e-14, false};
+  c.nano = nano_config(1.0, 30, 1e-14, false);
   test::FixedPlanes m1(constraints, 0.05), m2(constraints, 0.05);
   NavState x_ieskf = truth.boxplus(offset), x_nano = x_ieskf;
   StateCovariance P_ieskf = P0, P_nano = P0;
@@ -114,7 +124,7 @@ TEST(Nano, CubatureBeatsIeskfOnRangeBearingWithWidePrior) {
   c.max_iterations = 50;
   c.convergence_translation = 1e-9;
   c.convergence_rotation = 1e-9;
-  c.nano = NanoConfig{0.5, 100, 1e-10, true};
+  c.nano = nano_config(0.5, 100, 1e-10, true);
 
   auto run = [&](UpdateBackend& backend) {
     test::RangeBearing m = model;
@@ -153,28 +163,30 @@ TEST(Nano, PrecisionPositiveDefiniteAtEveryIterate) {
   const auto constraints = test::FixedPlanes::observe(
       {Eigen::Vector4d(0, 0, 1, 1.0), Eigen::Vector4d(1, 0, 0, -6.0), Eigen::Vector4d(0, 1, 0, 5.0)}, truth, rng, 30);
   for (double beta : {0.3, 0.7, 1.0}) {
-    test::FixedPlanes model(constraints, 0.05);
-    StateCovariance P = StateCovariance::Zero();
-    P.topLeftCorner<6, 6>() = 0.01 * Eigen::Matrix<double, 6, 6>::Identity();
-    P.block<3, 3>(Idx::kVel, Idx::kVel) = 0.01 * Eigen::Matrix3d::Identity();
-    StateVector offset = StateVector::Zero();
-    offset.head<6>() << 0.1, 0.05, -0.08, 0.03, 0.02, -0.04;
-    NavState x = truth.boxplus(offset);
-    UpdateConfig c;
-    c.nano = NanoConfig{beta, 60, 1e-8, true};
-    NanoBackend nano(c);
-    int count = 0;
-    nano.set_iteration_hook([&](const NanoIterate& it) {
-      ++count;
-      EXPECT_TRUE(it.precision_positive_definite) << "beta " << beta << " iteration " << it.iteration;
-      EXPECT_GT(min_eigenvalue(it.precision), 0.0) << "beta " << beta << " iteration " << it.iteration;
-      EXPECT_GE(it.kl_change, -1e-9);
-    });
-    const UpdateResult res = nano.update(x, P, model);
-    EXPECT_TRUE(res.converged) << "beta " << beta;
-    EXPECT_EQ(count, res.iterations);
-    EXPECT_LT((x.p - truth.p).norm(), 5e-3) << "beta " << beta;
-    EXPECT_GT(min_eigenvalue(P.topLeftCorner<6, 6>()), 0.0);
+    for (bool adaptive : {false, true}) {
+      test::FixedPlanes model(constraints, 0.05);
+      StateCovariance P = StateCovariance::Zero();
+      P.topLeftCorner<6, 6>() = 0.01 * Eigen::Matrix<double, 6, 6>::Identity();
+      P.block<3, 3>(Idx::kVel, Idx::kVel) = 0.01 * Eigen::Matrix3d::Identity();
+      StateVector offset = StateVector::Zero();
+      offset.head<6>() << 0.1, 0.05, -0.08, 0.03, 0.02, -0.04;
+      NavState x = truth.boxplus(offset);
+      UpdateConfig c;
+      c.nano = nano_config(beta, 60, 1e-8, true, adaptive);
+      NanoBackend nano(c);
+      int count = 0;
+      nano.set_iteration_hook([&](const NanoIterate& it) {
+        ++count;
+        EXPECT_TRUE(it.precision_positive_definite) << "beta " << beta << " iteration " << it.iteration;
+        EXPECT_GT(min_eigenvalue(it.precision), 0.0) << "beta " << beta << " iteration " << it.iteration;
+        EXPECT_GE(it.kl_change, -1e-9);
+      });
+      const UpdateResult res = nano.update(x, P, model);
+      EXPECT_TRUE(res.converged) << "beta " << beta << " adaptive " << adaptive;
+      EXPECT_EQ(count, res.iterations);
+      EXPECT_LT((x.p - truth.p).norm(), 5e-3) << "beta " << beta << " adaptive " << adaptive;
+      EXPECT_GT(min_eigenvalue(P.topLeftCorner<6, 6>()), 0.0);
+    }
   }
 }
 

@@ -31,13 +31,14 @@ TEST(UpdateBackends, FactoryNamesEveryBackend) {
 TEST(UpdateBackends, ConfigSectionsAndValidation) {
   const UpdateConfig c = load_update(
       "backend: nano\nmax_iterations: 4\nieskf: {max_iterations: 7}\n"
-      "nano: {step: 0.5, max_iterations: 9, kl_tolerance: 1.0e-3, cubature: false}\n");
+      "nano: {step: 0.5, max_iterations: 9, kl_tolerance: 1.0e-3, cubature: false, adaptive_cubature: false}\n");
   EXPECT_EQ(c.backend, "nano");
   EXPECT_EQ(c.max_iterations, 7);  // the ieskf section wins over the flat key
   EXPECT_DOUBLE_EQ(c.nano.step, 0.5);
   EXPECT_EQ(c.nano.max_iterations, 9);
   EXPECT_DOUBLE_EQ(c.nano.kl_tolerance, 1e-3);
   EXPECT_FALSE(c.nano.cubature);
+  EXPECT_FALSE(c.nano.adaptive_cubature);
   EXPECT_EQ(load_update("backend: eskf\neskf: {}\n").backend, "eskf");
   EXPECT_THROW(load_update("backend: ukf\n"), ConfigError);
   EXPECT_THROW(load_update("nano: {step: 1.5}\n"), ConfigError);

@@ -29,23 +29,44 @@ UpdateResult NanoBackend::update(NavState& x, StateCovariance& P, MeasurementMod
   const std::vector<int>& pose = active.pose();
   const int d = static_cast<int>(pose.size());
   const double beta = cfg.step;
-
-  Eigen::VectorXd mu = Eigen::VectorXd::Zero(n);
-  Eigen::MatrixXd Lambda = prior_info;
-  Eigen::LLT<Eigen::MatrixXd> llt(Lambda);
   const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(n, n);
-  Eigen::MatrixXd Sigma = llt.solve(I);
-  LinearSystem at_mean, point, expected;
+
+  struct Q {
+    Eigen::VectorXd mu;
+    Eigen::MatrixXd Lambda, Sigma;
+    Eigen::LLT<Eigen::MatrixXd> llt;
+  };
+  Q q{Eigen::VectorXd::Zero(n), prior_info, Eigen::MatrixXd(), Eigen::LLT<Eigen::MatrixXd>(prior_info)};
+  q.Sigma = q.llt.solve(I);
+  // One natural-gradient step from q with the expected (attenuated) system.
+  auto step = [&](const Q& from, const LinearSystem& expected) {
+    Eigen::MatrixXd target = prior_info;
+    active.add_information(expected, target);
+    Q to;
+    to.Lambda = (1.0 - beta) * from.Lambda + beta * target;
+    to.llt.compute(to.Lambda);
+    to.mu = from.mu - beta * to.llt.solve(Eigen::VectorXd(active.gradient(expected) + prior_info * from.mu));
+    to.Sigma = to.llt.solve(I);
+    return to;
+  };
+  // KL(a ‖ b) = ½[tr(Λ_b Σ_a) − n + (μ_a − μ_b)ᵀΛ_b(μ_a − μ_b) + ln|Λ_a| − ln|Λ_b|].
+  auto kl = [&](const Q& a, const Q& b) {
+    const Eigen::VectorXd dmu = a.mu - b.mu;
+    return 0.5 * ((b.Lambda * a.Sigma).trace() - n + dmu.dot(b.Lambda * dmu) + log_det(a.llt) - log_det(b.llt));
+  };
+
+  bool cubature = cfg.cubature && d > 0;
+  LinearSystem at_mean, point;
   for (int it = 0; it < cfg.max_iterations; ++it) {
     // The mean: association and cost; the expectation when cubature is off.
-    const NavState x_mean = prior.boxplus(active.scatter(mu));
-    if (!model.linearize(x_mean, it, at_mean) || at_mean.count == 0) break;
+    if (!model.linearize(prior.boxplus(active.scatter(q.mu)), it, at_mean) || at_mean.count == 0) break;
     if (it == 0) result.cost_before = at_mean.cost;
-    expected = at_mean;
-    if (cfg.cubature && d > 0) {
+    LinearSystem expected = at_mean;
+    bool have_cubature = false;
+    if (cubature) {
       Eigen::MatrixXd S_pose(d, d);
       for (int r = 0; r < d; ++r) {
-        for (int c = 0; c < d; ++c) S_pose(r, c) = Sigma(pose[r], pose[c]);
+        for (int c = 0; c < d; ++c) S_pose(r, c) = q.Sigma(pose[r], pose[c]);
       }
       const Eigen::LLT<Eigen::MatrixXd> pose_llt(S_pose);
       const Eigen::MatrixXd L = pose_llt.matrixL();
@@ -55,45 +76,39 @@ UpdateResult NanoBackend::update(NavState& x, StateCovariance& P, MeasurementMod
       bool ok = pose_llt.info() == Eigen::Success;
       const double radius = std::sqrt(static_cast<double>(d));
       for (int i = 0; ok && i < 2 * d; ++i) {
-        Eigen::VectorXd m = mu;
+        Eigen::VectorXd m = q.mu;
         for (int r = 0; r < d; ++r) m(pose[r]) += (i % 2 == 0 ? radius : -radius) * L(r, i / 2);
         ok = model.linearize(prior.boxplus(active.scatter(m)), kCubatureIteration, point) && point.count > 0;
         if (ok) accumulate(sum, point, 1.0 / (2.0 * d));
       }
-      if (ok) expected = sum;  // otherwise (a point without constraints): the mean alone
+      if (ok) {  // otherwise (a point without constraints): the mean alone
+        expected = sum;
+        have_cubature = true;
+      }
     }
     result.degeneracy = attenuate_degenerate_directions(expected, config_.degeneracy);
-
-    // Natural-gradient step.
-    Eigen::MatrixXd target = prior_info;
-    active.add_information(expected, target);
-    const Eigen::MatrixXd Lambda_new = (1.0 - beta) * Lambda + beta * target;
-    const Eigen::LLT<Eigen::MatrixXd> llt_new(Lambda_new);
-    const Eigen::VectorXd grad = active.gradient(expected) + prior_info * mu;
-    const Eigen::VectorXd mu_new = mu - beta * llt_new.solve(grad);
-
-    // KL(q_new ‖ q_old) = ½[tr(Λ_old Σ_new) − n + ΔμᵀΛ_old Δμ + ln|Λ_new| − ln|Λ_old|].
-    const Eigen::MatrixXd Sigma_new = llt_new.solve(I);
-    const Eigen::VectorXd dmu = mu_new - mu;
-    const double kl = 0.5 * ((Lambda * Sigma_new).trace() - n + dmu.dot(Lambda * dmu) + log_det(llt_new) - log_det(llt));
-
-    mu = mu_new;
-    Lambda = Lambda_new;
-    Sigma = Sigma_new;
-    llt = llt_new;
+    const Q next = step(q, expected);
+    if (have_cubature && cfg.adaptive_cubature) {
+      // The same step with the expectation at the mean: when the two differ by less than the KL
+      // tolerance, the cubature no longer matters and later iterations take the mean only.
+      attenuate_degenerate_directions(at_mean, config_.degeneracy);
+      if (kl(next, step(q, at_mean)) < cfg.kl_tolerance) cubature = false;
+    }
+    const double kl_change = kl(next, q);
+    q = next;
     result.updated = true;
     result.iterations = it + 1;
     result.constraints = at_mean.count;
     result.cost_after = at_mean.cost;
-    if (hook_) hook_(NanoIterate{it, mu, Lambda, kl, llt.info() == Eigen::Success});
-    if (kl < cfg.kl_tolerance) {
+    if (hook_) hook_(NanoIterate{it, q.mu, q.Lambda, kl_change, q.llt.info() == Eigen::Success});
+    if (kl_change < cfg.kl_tolerance) {
       result.converged = true;
       break;
     }
   }
   if (!result.updated) return result;
-  x = prior.boxplus(active.scatter(mu));
-  P = active.scatter(Sigma);
+  x = prior.boxplus(active.scatter(q.mu));
+  P = active.scatter(q.Sigma);
   return result;
 }
 

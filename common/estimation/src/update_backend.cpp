@@ -27,7 +27,7 @@ struct IeskfSection {
 
 void NanoConfig::load(ConfigNode& node) {
   node.get("step", step).get("max_iterations", max_iterations);
-  node.get("kl_tolerance", kl_tolerance).get("cubature", cubature);
+  node.get("kl_tolerance", kl_tolerance).get("cubature", cubature).get("adaptive_cubature", adaptive_cubature);
   node.check(step > 0.0 && step <= 1.0, "step", "must be in (0, 1]");
   node.check(max_iterations >= 1 && max_iterations <= 100, "max_iterations", "must be in [1, 100]");
   node.check(kl_tolerance > 0.0, "kl_tolerance", "must be positive");

@@ -13,6 +13,12 @@
 // first-order identification as the IESKF). Stops when KL(q_new ‖ q_old) < kl_tolerance or at
 // max_iterations; the posterior is x̂ ⊞ μ with covariance Λ⁻¹.
 //
+// Adaptive cubature (adaptive_cubature, default on): on an iteration with cubature the step is
+// also computed with the expectation at the mean; when the two resulting Gaussians differ by less
+// than kl_tolerance (KL), the cubature no longer matters (q is narrow against the model's
+// nonlinearity, as for point-to-plane residuals once q is the scan's posterior) and the remaining
+// iterations take the mean only, which saves 2d linearisations per iteration.
+//
 // The mean is linearised first on every iteration with the iteration count (a model may
 // re-associate there); cubature points are linearised with kCubatureIteration, past any
 // re-association iteration, so a re-associating model only re-screens there. With expectations

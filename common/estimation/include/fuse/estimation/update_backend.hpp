@@ -25,6 +25,8 @@ struct NanoConfig {
   int max_iterations = 5;      ///< iteration cap
   double kl_tolerance = 1e-2;  ///< nats: stop when KL(q_new ‖ q_old) falls below this
   bool cubature = true;        ///< expectations by spherical-radial cubature over the pose (off: at the mean)
+  /// Drop the cubature for the remaining iterations once it changes the step by less than kl_tolerance.
+  bool adaptive_cubature = true;
   void load(ConfigNode& node);
 };
 
