@@ -10,7 +10,7 @@ namespace {
 constexpr std::size_t kLeafSize = 16;
 constexpr std::size_t kMaxLeafSize = 2 * kLeafSize;
 /// A subtree is rebuilt when its larger child holds more than this fraction of its points…
-constexpr double kAlpha = 0.72;
+constexpr double kAlpha = 0.8;
 /// …and it holds at least this many (smaller subtrees are cheap to search anyway).
 constexpr std::uint32_t kMinBalanceCount = 8 * kLeafSize;
 /// Inserts are checked for balance after every chunk of this many points.
