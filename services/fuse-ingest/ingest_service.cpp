@@ -5,6 +5,7 @@
 #include <thread>
 
 #include "fuse/core/logging.hpp"
+#include "fuse/io/prefetch_source.hpp"
 #include "fuse/service/convert.hpp"
 #include "fuse/service/runtime.hpp"
 
@@ -23,7 +24,8 @@ double unix_now() {
 IngestService::IngestService(const SystemConfig& config, transport::Participant& participant, IngestOptions options)
     : config_(config),
       options_(std::move(options)),
-      source_(io::open_sensor_source(options_.input)),
+      source_(std::make_unique<io::PrefetchSource>(io::open_sensor_source(options_.input),
+                                                static_cast<std::size_t>(config.ingest.prefetch_events))),
       counters_(logger(kName)),
       imu_(participant, transport::topics::kImu),
       scans_(participant, transport::topics::kLidarScan) {
@@ -71,7 +73,7 @@ void IngestService::publish(const io::SensorEvent& ev) {
   if (ev.kind == io::SensorEvent::Kind::kImu) {
     imu_.publish(to_msg(ev.imu, kFrameImu));
   } else {
-    scans_.publish(to_msg(ev.scan, kFrameLidar));
+    scans_.publish_serialized(scan_to_wire(ev.scan, kFrameLidar));
   }
   std::lock_guard<std::mutex> lock(mutex_);
   counters_.add(ev.kind == io::SensorEvent::Kind::kImu ? "imu_published" : "scans_published");
@@ -166,8 +168,10 @@ int IngestService::run() {
     state_ = "stopping";
   }
   health_->publish_now();
-  for (const auto& [reason, n] : source_->stats().rejected) log->warn("input refused: {} x{}", reason, n);
-  log->info("replay done: {} IMU samples, {} scans", source_->stats().imu_samples, source_->stats().scans);
+  std::lock_guard<std::mutex> lock(mutex_);  // health() reads the source's stats too
+  const io::SourceStats stats = source_->stats();
+  for (const auto& [reason, n] : stats.rejected) log->warn("input refused: {} x{}", reason, n);
+  log->info("replay done: {} IMU samples, {} scans", stats.imu_samples, stats.scans);
   return 0;
 }
 

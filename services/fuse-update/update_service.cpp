@@ -5,6 +5,8 @@
 
 #include "fuse/core/logging.hpp"
 #include "fuse/estimation/estimator.hpp"
+#include "fuse/io/cdr_codec.hpp"
+#include "fuse/io/sensor_source.hpp"
 #include "fuse/service/runtime.hpp"
 
 namespace fuse::service {
@@ -40,8 +42,10 @@ UpdateService::UpdateService(const SystemConfig& config, transport::Participant&
         std::lock_guard<std::mutex> lock(mutex_);
         if (std::isfinite(m.t())) corrected_t_ = std::max(corrected_t_, m.t());
       });
-  scan_sub_ = std::make_unique<transport::Subscriber<fuse_msgs::LidarScan>>(
-      participant, transport::topics::kLidarScan, [this](const fuse_msgs::LidarScan& m) { on_scan(m); }, bad("scan"));
+  // Scans are decoded by the direct codec (io::decode_scan, checked in process()): a tenth of the cost of the
+  // generated type's decoding for ~20k points, on the scan's way to the update.
+  scan_sub_ = std::make_unique<transport::RawSubscriber<fuse_msgs::LidarScan>>(
+      participant, transport::topics::kLidarScan, [this](const std::uint8_t* data, std::size_t size) { on_scan(data, size); });
   health_ = std::make_unique<HealthReporter>(participant, kName, config.health.period_s, [this] { return health(); });
   logger(kName)->info("session {:016x}", session_);
 }
@@ -54,14 +58,23 @@ UpdateService::~UpdateService() {
   chunk_sub_.reset();
 }
 
-void UpdateService::on_scan(const fuse_msgs::LidarScan& msg) {
+void UpdateService::on_scan(const std::uint8_t* data, std::size_t size) {
+  LidarScan scan;
+  try {
+    scan = io::decode_scan(io::kLidarScanSchemaName, data, size);
+  } catch (const io::InputError& e) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    counters_.count("malformed_scan", std::string("scan sample refused: ") + e.what());
+    last_error_ = e.what();
+    return;
+  }
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (msg.end_time() <= corrected_t_) {  // re-delivered to a restarted fuse-update: answered before
+    if (scan.t_end <= corrected_t_) {  // re-delivered to a restarted fuse-update: answered before
       counters_.add("scans_already_corrected");
       return;
     }
-    scans_.push_back(msg);
+    scans_.push_back(std::move(scan));
     if (scans_.size() > kMaxQueuedScans) {
       scans_.pop_front();
       counters_.count("scan_backlog_dropped", "scan backlog over " + std::to_string(kMaxQueuedScans) + ": oldest scan dropped");
@@ -135,7 +148,7 @@ void UpdateService::sync_map(double timeout_s) {
 void UpdateService::run() {
   sync_map(config_.update.map_sync_timeout_s);
   while (!stop_requested()) {
-    fuse_msgs::LidarScan scan;
+    LidarScan scan;
     bool have_scan = false;
     bool resync = false;
     {
@@ -160,16 +173,16 @@ void UpdateService::run() {
       sync_map(config_.update.map_sync_timeout_s);
       continue;
     }
-    if (have_scan) process(scan);
+    if (have_scan) process(std::move(scan));
     resend_unacked(false);
   }
   health_->publish_now();
 }
 
-void UpdateService::publish_skipped(const fuse_msgs::LidarScan& msg) {
+void UpdateService::publish_skipped(const LidarScan& scan) {
   fuse_msgs::Correction c;
-  c.t(msg.end_time());
-  c.scan_sequence(msg.sequence_number());
+  c.t(scan.t_end);
+  c.scan_sequence(scan.sequence);
   c.result(fuse_msgs::SCAN_SKIPPED);
   corrections_.publish(c);
 }
@@ -232,17 +245,16 @@ bool UpdateService::fetch_history(const LidarScan& scan, StateHistory& out) {
   }
 }
 
-void UpdateService::process(const fuse_msgs::LidarScan& msg) {
-  LidarScan scan;
+void UpdateService::process(LidarScan scan) {
   try {
-    scan = from_msg(msg);
+    check_scan(scan);
   } catch (const InvalidSample& e) {
     {
       std::lock_guard<std::mutex> lock(mutex_);
       counters_.count(e.reason(), std::string("scan refused: ") + e.what());
       last_error_ = e.what();
     }
-    publish_skipped(msg);
+    publish_skipped(scan);
     return;
   }
   if (scan.t_end <= last_scan_t_) {
@@ -250,12 +262,12 @@ void UpdateService::process(const fuse_msgs::LidarScan& msg) {
       std::lock_guard<std::mutex> lock(mutex_);
       counters_.count("scan_out_of_order", "scan ending at t=" + std::to_string(scan.t_end) + " is not newer than the last one, refused");
     }
-    publish_skipped(msg);
+    publish_skipped(scan);
     return;
   }
   StateHistory history(config_.estimator.history, config_.estimator.imu);
   if (!fetch_history(scan, history)) {
-    publish_skipped(msg);
+    publish_skipped(scan);
     return;
   }
   last_scan_t_ = scan.t_end;
@@ -269,7 +281,7 @@ void UpdateService::process(const fuse_msgs::LidarScan& msg) {
       last_error_ = e.what();
       state_ = "degraded";
     }
-    publish_skipped(msg);
+    publish_skipped(scan);
     return;
   }
   const StateQuery q = history.query(scan.t_end);
@@ -343,7 +355,6 @@ HealthSnapshot UpdateService::health() {
   for (const auto& [k, v] : updater_counts_) s.counters[k] += v;
   s.counters["observations_unacked"] = unacked_.size();
   s.counters["scans_queued"] = scans_.size();
-  if (scan_sub_) s.counters["scan_malformed"] = scan_sub_->malformed();
   s.last_error = last_error_;
   return s;
 }

@@ -40,14 +40,14 @@ class UpdateService {
     fuse_msgs::MapObservation msg;
     std::chrono::steady_clock::time_point sent;
   };
-  void on_scan(const fuse_msgs::LidarScan& msg);
+  void on_scan(const std::uint8_t* data, std::size_t size);
   void on_chunk(const fuse_msgs::MapChunk& msg);
   void on_status(const fuse_msgs::MapStatus& msg);
   void sync_map(double timeout_s);
-  void process(const fuse_msgs::LidarScan& msg);
+  void process(LidarScan scan);
   /// Asks fuse-state for the history slice; false (counted) when the scan must be skipped.
   bool fetch_history(const LidarScan& scan, StateHistory& out);
-  void publish_skipped(const fuse_msgs::LidarScan& msg);
+  void publish_skipped(const LidarScan& scan);
   void offer_to_map(double t);
   void resend_unacked(bool all);
   HealthSnapshot health();
@@ -60,7 +60,7 @@ class UpdateService {
 
   std::mutex mutex_;  ///< guards what the DDS callbacks share with the worker
   std::condition_variable cv_;
-  std::deque<fuse_msgs::LidarScan> scans_;
+  std::deque<LidarScan> scans_;  ///< decoded, not yet checked (process() does)
   std::map<std::uint64_t, fuse_msgs::MapChunk> chunks_;  ///< newest chunk of each key, kept while (re)syncing
   bool have_status_ = false;
   fuse_msgs::MapStatus status_;
@@ -77,7 +77,7 @@ class UpdateService {
   transport::RpcClient<fuse_msgs::HistoryRequest, fuse_msgs::HistoryReply> history_;
   std::unique_ptr<transport::Subscriber<fuse_msgs::MapChunk>> chunk_sub_;
   std::unique_ptr<transport::Subscriber<fuse_msgs::MapStatus>> status_sub_;
-  std::unique_ptr<transport::Subscriber<fuse_msgs::LidarScan>> scan_sub_;
+  std::unique_ptr<transport::RawSubscriber<fuse_msgs::LidarScan>> scan_sub_;
   std::unique_ptr<transport::Subscriber<fuse_msgs::StateEstimate>> corrected_sub_;
   double corrected_t_ = -1.0;  ///< newest state/corrected time: older scans were answered before
   std::unique_ptr<HealthReporter> health_;

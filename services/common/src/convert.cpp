@@ -1,5 +1,7 @@
 #include "fuse/service/convert.hpp"
 
+#include "fuse/io/cdr_codec.hpp"
+
 #include <cmath>
 
 namespace fuse::service {
@@ -90,26 +92,30 @@ LidarScan from_msg(const fuse_msgs::LidarScan& m) {
   scan.t_start = m.start_time();
   scan.t_end = m.end_time();
   scan.sequence = m.sequence_number();
+  scan.points.resize(m.points().size());
+  for (std::size_t i = 0; i < m.points().size(); ++i) {
+    const auto& p = m.points()[i];
+    scan.points[i] = LidarPoint{p.x(), p.y(), p.z(), p.intensity(), p.time_offset(), p.ring()};
+  }
+  check_scan(scan);
+  return scan;
+}
+
+void check_scan(const LidarScan& scan) {
   require(std::isfinite(scan.t_start) && std::isfinite(scan.t_end), "scan_bad_time", "scan times are not finite");
   require(scan.t_end >= scan.t_start, "scan_bad_time", "scan ends before it starts");
   require(scan.t_end - scan.t_start <= 1.0, "scan_bad_time", "scan lasts more than 1 s");
-  require(!m.points().empty(), "scan_empty", "scan has no points");
+  require(!scan.points.empty(), "scan_empty", "scan has no points");
   const double span = scan.t_end - scan.t_start;
-  scan.points.resize(m.points().size());
   std::size_t bad = 0;
-  for (std::size_t i = 0; i < m.points().size(); ++i) {
-    const auto& p = m.points()[i];
-    LidarPoint& q = scan.points[i];
-    q.x = p.x();
-    q.y = p.y();
-    q.z = p.z();
-    q.intensity = p.intensity();
-    q.t_rel = p.time_offset();
-    q.ring = p.ring();
+  for (const LidarPoint& q : scan.points) {
     if (!std::isfinite(q.t_rel) || q.t_rel < -1e-3 || q.t_rel > span + 1e-3) ++bad;
   }
   require(bad == 0, "scan_bad_point_time", std::to_string(bad) + " point time offsets are not finite or outside the scan");
-  return scan;
+}
+
+std::vector<std::uint8_t> scan_to_wire(const LidarScan& scan, const std::string& frame) {
+  return io::encode_scan(scan, frame.substr(0, fuse_msgs::MAX_FRAME_ID));
 }
 
 fuse_msgs::Correction to_msg(const Posterior& post) {

@@ -1,6 +1,8 @@
 #include "fuse/service/runtime.hpp"
 
 #include <atomic>
+#include <condition_variable>
+#include <mutex>
 #include <csignal>
 #include <stdexcept>
 #include <thread>
@@ -11,6 +13,8 @@ namespace fuse::service {
 
 namespace {
 std::atomic<bool> g_stop{false};
+std::mutex g_stop_mutex;
+std::condition_variable g_stop_changed;
 }
 
 ServiceArgs parse_args(int argc, char** argv, const std::set<std::string>& allowed) {
@@ -46,19 +50,22 @@ void install_signal_handling() {
   std::thread([set] {
     int sig = 0;
     sigwait(&set, &sig);
-    g_stop = true;
+    {
+      std::lock_guard<std::mutex> lock(g_stop_mutex);
+      g_stop = true;
+    }
+    g_stop_changed.notify_all();
   }).detach();
 }
 
 bool stop_requested() { return g_stop; }
 
 bool wait_for_stop(double seconds) {
-  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-  while (std::chrono::steady_clock::now() < end) {
-    if (g_stop) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  return g_stop;
+  // Wakes at the deadline itself (a real-time replay publishes on it), or at once on a stop.
+  const auto end = std::chrono::steady_clock::now() +
+                   std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(seconds));
+  std::unique_lock<std::mutex> lock(g_stop_mutex);
+  return g_stop_changed.wait_until(lock, end, [] { return g_stop.load(); });
 }
 
 bool start_service(const std::string& name, int argc, char** argv, const std::set<std::string>& allowed,

@@ -75,6 +75,9 @@ class Publisher {
   Publisher(Participant& participant, const std::string& topic)
       : writer_(participant.create_writer(topic, type_support<T>(), topic_qos(topic))) {}
   bool publish(const T& msg) { return writer_->write(serialize(msg)); }
+  /// Publishes a sample already serialised as T (encapsulation header included), e.g. by a
+  /// direct codec that writes the same CDR without building T (io::encode_scan).
+  bool publish_serialized(const Bytes& sample) { return writer_->write(sample); }
   std::size_t matched() const { return writer_->matched_readers(); }
 
  private:
@@ -118,6 +121,23 @@ class Subscriber {
   Handler on_sample_;
   ErrorHandler on_malformed_;
   std::atomic<std::uint64_t> received_{0}, malformed_{0};
+  std::unique_ptr<RawReader> reader_;
+};
+
+/// Subscribes to a topic of type T but hands each sample over as bytes, for a reader that
+/// decodes T's CDR itself (io::decode_scan); that decoder checks the bytes.
+template <class T>
+class RawSubscriber {
+ public:
+  RawSubscriber(Participant& participant, const std::string& topic, RawHandler on_sample) {
+    reader_ = participant.create_reader(topic, type_support<T>(), topic_qos(topic), std::move(on_sample));
+  }
+  ~RawSubscriber() { reader_.reset(); }  // stop callbacks before the handler's owner goes away
+  RawSubscriber(const RawSubscriber&) = delete;
+  RawSubscriber& operator=(const RawSubscriber&) = delete;
+  std::size_t matched() const { return reader_->matched_writers(); }
+
+ private:
   std::unique_ptr<RawReader> reader_;
 };
 

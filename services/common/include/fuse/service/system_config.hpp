@@ -18,6 +18,9 @@ struct IngestConfig {
   double rate = 1.0;               ///< realtime: playback speed factor
   double lockstep_timeout_s = 3.0; ///< lockstep: wait at most this long for a scan's correction
   double start_wait_s = 10.0;      ///< wait this long for fuse-state and fuse-update to appear
+  /// Events read ahead of the schedule on a reader thread (io::PrefetchSource), so that a slow
+  /// read (an MCAP chunk being decompressed) does not delay publishing. 400 = 2 s of 200 Hz IMU.
+  int prefetch_events = 400;
   void load(ConfigNode& node);
 };
 
