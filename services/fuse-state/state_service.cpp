@@ -56,10 +56,12 @@ StateService::StateService(const SystemConfig& config, transport::Participant& p
       [this](const std::string& why) { malformed("correction", why); });
   query_server_ = std::make_unique<transport::RpcServer<fuse_msgs::QueryRequest, fuse_msgs::QueryReply>>(
       participant, transport::services::kQuery,
-      [this](const fuse_msgs::QueryRequest& req, fuse_msgs::QueryReply& rep) { on_query(req, rep); });
+      [this](const fuse_msgs::QueryRequest& req, fuse_msgs::QueryReply& rep) { on_query(req, rep); },
+      transport::Dispatch::kInline);  // both handlers take the state lock briefly and answer
   history_server_ = std::make_unique<transport::RpcServer<fuse_msgs::HistoryRequest, fuse_msgs::HistoryReply>>(
       participant, transport::services::kHistory,
-      [this](const fuse_msgs::HistoryRequest& req, fuse_msgs::HistoryReply& rep) { on_history(req, rep); });
+      [this](const fuse_msgs::HistoryRequest& req, fuse_msgs::HistoryReply& rep) { on_history(req, rep); },
+      transport::Dispatch::kInline);
   health_ = std::make_unique<HealthReporter>(participant, kName, config.health.period_s, [this] { return health(); });
 }
 

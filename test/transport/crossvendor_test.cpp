@@ -100,42 +100,49 @@ TEST(CrossVendor, MebibyteScansCycloneToFastdds) { large_scans("cyclonedds", "fa
 using QueryServer = RpcServer<fuse_msgs::QueryRequest, fuse_msgs::QueryReply>;
 using QueryClient = RpcClient<fuse_msgs::QueryRequest, fuse_msgs::QueryReply>;
 
+// Each server dispatch mode in turn (its own thread, and inline on the receive thread).
 void rpc(const std::string& client_vendor, const std::string& server_vendor, int domain) {
   auto server_side = make_participant(config(server_vendor, domain), "fuse-state");
   auto client_side = make_participant(config(client_vendor, domain), "fuse-query");
-  QueryServer server(*server_side, services::kQuery, [](const fuse_msgs::QueryRequest& req, fuse_msgs::QueryReply& rep) {
-    if (req.t() == 13.0) throw std::runtime_error("unlucky time");
-    if (req.t() < 0.0) {
-      rep.error(fuse_msgs::RPC_BAD_REQUEST);
-      rep.error_message("negative time");
-      return;
-    }
-    rep.estimate(make_state(7));
-    rep.estimate().t(req.t());
-  });
-  QueryClient client(*client_side, services::kQuery);
-  ASSERT_TRUE(client.wait_for_server(10s));
+  for (const Dispatch dispatch : {Dispatch::kWorker, Dispatch::kInline}) {
+    SCOPED_TRACE(dispatch == Dispatch::kWorker ? "worker dispatch" : "inline dispatch");
+    QueryServer server(
+        *server_side, services::kQuery,
+        [](const fuse_msgs::QueryRequest& req, fuse_msgs::QueryReply& rep) {
+          if (req.t() == 13.0) throw std::runtime_error("unlucky time");
+          if (req.t() < 0.0) {
+            rep.error(fuse_msgs::RPC_BAD_REQUEST);
+            rep.error_message("negative time");
+            return;
+          }
+          rep.estimate(make_state(7));
+          rep.estimate().t(req.t());
+        },
+        dispatch);
+    QueryClient client(*client_side, services::kQuery);
+    ASSERT_TRUE(client.wait_for_server(10s));
 
-  fuse_msgs::QueryRequest req;
-  req.t(42.5);
-  auto result = client.call(req, 5s);
-  ASSERT_TRUE(result.ok()) << result.message;
-  EXPECT_EQ(result.reply.header().client_id(), client.client_id());
-  fuse_msgs::StateEstimate expected = make_state(7);
-  expected.t(42.5);
-  EXPECT_EQ(serialize(result.reply.estimate()), serialize(expected));
+    fuse_msgs::QueryRequest req;
+    req.t(42.5);
+    auto result = client.call(req, 5s);
+    ASSERT_TRUE(result.ok()) << result.message;
+    EXPECT_EQ(result.reply.header().client_id(), client.client_id());
+    fuse_msgs::StateEstimate expected = make_state(7);
+    expected.t(42.5);
+    EXPECT_EQ(serialize(result.reply.estimate()), serialize(expected));
 
-  req.t(-1.0);
-  result = client.call(req, 5s);
-  EXPECT_EQ(result.status, fuse_msgs::RPC_BAD_REQUEST);
-  EXPECT_EQ(result.message, "negative time");
+    req.t(-1.0);
+    result = client.call(req, 5s);
+    EXPECT_EQ(result.status, fuse_msgs::RPC_BAD_REQUEST);
+    EXPECT_EQ(result.message, "negative time");
 
-  req.t(13.0);
-  result = client.call(req, 5s);
-  EXPECT_EQ(result.status, fuse_msgs::RPC_INTERNAL_ERROR);
-  EXPECT_EQ(result.message, "unlucky time");
-  EXPECT_EQ(server.handled(), 3u);
-  EXPECT_EQ(server.malformed(), 0u);
+    req.t(13.0);
+    result = client.call(req, 5s);
+    EXPECT_EQ(result.status, fuse_msgs::RPC_INTERNAL_ERROR);
+    EXPECT_EQ(result.message, "unlucky time");
+    EXPECT_EQ(server.handled(), 3u);
+    EXPECT_EQ(server.malformed(), 0u);
+  }
 }
 
 TEST(CrossVendor, RpcFastddsClientCycloneServer) { rpc("fastdds", "cyclonedds", 34); }

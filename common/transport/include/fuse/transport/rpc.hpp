@@ -31,24 +31,35 @@ inline std::uint64_t random_id() {
   return id;
 }
 
+/// Where an RpcServer runs its handler.
+enum class Dispatch {
+  kWorker,  ///< on the server's own thread, behind a queue: for handlers that may take long
+  /// on the transport's receive thread, as the request arrives: one thread hand-over less per
+  /// call, for handlers that never block (a short lock and an answer, as fuse-state's query)
+  kInline,
+};
+
 template <class Req, class Rep>
 class RpcServer {
  public:
   /// Fills the reply for a request; the reply's error is RPC_OK unless the handler sets it.
   using Handler = std::function<void(const Req&, Rep&)>;
 
-  RpcServer(Participant& participant, const std::string& service, Handler handler)
+  RpcServer(Participant& participant, const std::string& service, Handler handler,
+            Dispatch dispatch = Dispatch::kWorker)
       : handler_(std::move(handler)),
+        dispatch_(dispatch),
         replies_(participant, reply_topic(service)),
-        requests_(participant, request_topic(service), [this](const Req& r) { enqueue(r); }),
-        worker_([this] { run(); }) {}
+        requests_(participant, request_topic(service), [this](const Req& r) { enqueue(r); }) {
+    if (dispatch_ == Dispatch::kWorker) worker_ = std::thread([this] { run(); });
+  }
   ~RpcServer() {
     {
       std::lock_guard<std::mutex> lock(mutex_);
       stop_ = true;
     }
     cv_.notify_all();
-    worker_.join();
+    if (worker_.joinable()) worker_.join();
   }
 
   std::uint64_t handled() const { return handled_; }
@@ -56,6 +67,10 @@ class RpcServer {
 
  private:
   void enqueue(const Req& r) {
+    if (dispatch_ == Dispatch::kInline) {
+      handle(r);
+      return;
+    }
     {
       std::lock_guard<std::mutex> lock(mutex_);
       queue_.push_back(r);
@@ -73,36 +88,43 @@ class RpcServer {
         req = std::move(queue_.front());
         queue_.pop_front();
       }
-      const auto client = req.header().client_id();
-      auto cached = last_.find(client);
-      if (cached != last_.end() && cached->second.header().request_id() == req.header().request_id()) {
-        replies_.publish(cached->second);  // a repeat: answer again, do not run the handler twice
-        continue;
-      }
-      Rep rep;
-      rep.error(fuse_msgs::RPC_OK);
-      try {
-        handler_(req, rep);
-      } catch (const std::exception& e) {
-        rep.error(fuse_msgs::RPC_INTERNAL_ERROR);
-        rep.error_message(std::string(e.what()).substr(0, 255));
-      }
-      rep.header(req.header());
-      ++handled_;
-      replies_.publish(rep);
-      if (last_.size() > kMaxClients) last_.clear();
-      last_[client] = rep;
+      handle(req);
     }
+  }
+
+  void handle(const Req& req) {
+    std::lock_guard<std::mutex> lock(handle_mutex_);
+    const auto client = req.header().client_id();
+    auto cached = last_.find(client);
+    if (cached != last_.end() && cached->second.header().request_id() == req.header().request_id()) {
+      replies_.publish(cached->second);  // a repeat: answer again, do not run the handler twice
+      return;
+    }
+    Rep rep;
+    rep.error(fuse_msgs::RPC_OK);
+    try {
+      handler_(req, rep);
+    } catch (const std::exception& e) {
+      rep.error(fuse_msgs::RPC_INTERNAL_ERROR);
+      rep.error_message(std::string(e.what()).substr(0, 255));
+    }
+    rep.header(req.header());
+    ++handled_;
+    replies_.publish(rep);
+    if (last_.size() > kMaxClients) last_.clear();
+    last_[client] = rep;
   }
 
   static constexpr std::size_t kMaxClients = 256;
   Handler handler_;
+  const Dispatch dispatch_;
   Publisher<Rep> replies_;
-  std::mutex mutex_;
+  std::mutex mutex_;  ///< guards queue_ and stop_
   std::condition_variable cv_;
   std::deque<Req> queue_;
   bool stop_ = false;
-  std::map<std::uint64_t, Rep> last_;  ///< worker thread only
+  std::mutex handle_mutex_;  ///< one request at a time; guards last_
+  std::map<std::uint64_t, Rep> last_;
   std::atomic<std::uint64_t> handled_{0};
   Subscriber<Req> requests_;
   std::thread worker_;
