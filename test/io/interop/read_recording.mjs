@@ -1,8 +1,10 @@
 // Interoperability check: opens FUSE recordings with the reference MCAP readers (@mcap/core,
 // streaming and indexed) and decodes one message of every channel with @foxglove/omgidl-
 // serialization, using only the schema embedded in the file. Exit code 0 = every check passed.
-// Usage: node read_recording.mjs RECORDING.mcap [...]
-import { readFile, open } from "node:fs/promises";
+// A directory argument stands for every .mcap file in it (fuse-record's numbered files).
+// Usage: node read_recording.mjs RECORDING.mcap|DIR [...]
+import { readFile, open, readdir, stat } from "node:fs/promises";
+import { join } from "node:path";
 import { crc32 } from "@foxglove/crc";
 import { McapIndexedReader, McapStreamReader } from "@mcap/core";
 import { FileHandleReadable } from "@mcap/nodejs";
@@ -79,6 +81,11 @@ async function checkFile(path, decompressHandlers) {
     const topics = [...reader.channelsById.values()].map((c) => c.topic).sort();
     check(topics.includes("imu") && topics.includes("lidar/scan"), `channels imu and lidar/scan present (found ${topics})`);
     for (const channel of reader.channelsById.values()) {
+      // A channel may be declared with no message in this file (a recorder's rotated file).
+      if (reader.statistics && (reader.statistics.channelMessageCounts.get(channel.id) ?? 0n) === 0n) {
+        console.log(`${path}: ${channel.topic} has no messages in this file`);
+        continue;
+      }
       const schema = reader.schemasById.get(channel.schemaId);
       check(schema !== undefined, `channel ${channel.topic} has a schema`);
       check(schema.encoding === "omgidl" && channel.messageEncoding === "cdr", `${channel.topic}: omgidl schema, cdr messages`);
@@ -109,9 +116,18 @@ async function checkFile(path, decompressHandlers) {
   }
 }
 
-const files = process.argv.slice(2);
+const files = [];
+for (const arg of process.argv.slice(2)) {
+  if ((await stat(arg)).isDirectory()) {
+    const inside = (await readdir(arg)).filter((n) => n.endsWith(".mcap")).sort();
+    check(inside.length > 0, `directory ${arg} holds .mcap files`);
+    files.push(...inside.map((n) => join(arg, n)));
+  } else {
+    files.push(arg);
+  }
+}
 if (files.length === 0) {
-  console.error("usage: node read_recording.mjs RECORDING.mcap [...]");
+  console.error("usage: node read_recording.mjs RECORDING.mcap|DIR [...]");
   process.exit(2);
 }
 const decompressHandlers = await loadDecompressHandlers();

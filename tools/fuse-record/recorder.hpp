@@ -1,0 +1,70 @@
+// fuse-record's core (issue 5 item 2): one raw DDS reader per chosen topic hands each sample's
+// bytes to a bounded queue (SampleQueue; a sample that does not fit is counted as dropped); one
+// writer thread checks each sample against its type and writes it to the rotating MCAP output.
+// Log times: imu and lidar/scan carry their own time (IMU t, scan end), as fuse-sim writes them,
+// so fuse-ingest replays the recording in the order the data was taken; every other topic is
+// stamped with the newest such sensor time seen when it was written (one clock per file).
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "fuse/transport/transport.hpp"
+#include "rotating_writer.hpp"
+#include "sample_queue.hpp"
+#include "topic_catalog.hpp"
+
+namespace fuse::record {
+
+struct TopicStats {
+  std::string topic;
+  std::uint64_t received = 0;   ///< samples delivered by DDS
+  std::uint64_t dropped = 0;    ///< refused by the full queue
+  std::uint64_t malformed = 0;  ///< failed the type check (not written)
+  std::uint64_t written = 0;
+  std::uint64_t bytes = 0;      ///< bytes written
+};
+
+class Recorder {
+ public:
+  /// Subscribes to `topics` and starts the writer thread. Throws std::runtime_error when the
+  /// output cannot be created or a reader cannot.
+  Recorder(transport::Participant& participant, std::vector<const TopicType*> topics, const RotationOptions& output,
+           std::size_t queue_bytes);
+  ~Recorder();
+  /// Stops the readers, writes what is queued, closes the last file. Idempotent.
+  void stop();
+  /// True once the writer thread hit an error it cannot go on from (logged; see error()).
+  bool failed() const { return failed_; }
+  std::string error() const;
+  std::vector<TopicStats> stats() const;
+  std::vector<FileSummary> files() const;
+  std::size_t queue_peak_bytes() const { return queue_.peak_bytes(); }
+
+ private:
+  struct Counters {
+    std::atomic<std::uint64_t> received{0}, dropped{0}, malformed{0}, written{0}, bytes{0};
+  };
+  void on_sample(std::size_t topic, const std::uint8_t* data, std::size_t size);
+  void run();
+  void write(const QueuedSample& s);
+
+  std::vector<const TopicType*> topics_;
+  std::vector<std::unique_ptr<Counters>> counters_;
+  SampleQueue queue_;
+  RotatingWriter writer_;
+  std::uint64_t clock_ns_ = 0;  ///< newest sensor time written (writer thread only)
+  std::atomic<bool> stopping_{false}, failed_{false};
+  mutable std::mutex mutex_;  ///< guards error_ and writer_'s file list
+  std::string error_;
+  std::vector<std::unique_ptr<transport::RawReader>> readers_;
+  std::thread thread_;
+  bool stopped_ = false;
+};
+
+}  // namespace fuse::record
