@@ -7,6 +7,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <thread>
 
@@ -173,6 +174,16 @@ TEST(LivoxUdpSource, StopEndsTheStreamAndBadConfigIsRefused) {
   SensorEvent ev;
   EXPECT_FALSE(source.next(ev));
   stopper.join();
+  std::atomic<bool> flag{false};
+  auto hooked = loopback(0.0);
+  hooked.should_stop = [&flag] { return flag.load(); };
+  LivoxUdpSource polled(hooked);
+  std::thread setter([&] {
+    std::this_thread::sleep_for(200ms);
+    flag = true;
+  });
+  EXPECT_FALSE(polled.next(ev));
+  setter.join();
   auto bad = loopback(0.0);
   bad.address = "not-an-address";
   EXPECT_THROW(LivoxUdpSource{bad}, InputError);

@@ -140,7 +140,7 @@ void LivoxUdpSource::receive_loop() {
   std::vector<std::uint8_t> buffer(kMaxDatagram + 1);
   pollfd fds[2] = {{point_fd_, POLLIN, 0}, {imu_fd_, POLLIN, 0}};
   auto last_packet = std::chrono::steady_clock::now();
-  while (!stop_) {
+  while (!stop_ && !(config_.should_stop && config_.should_stop())) {
     const int n = ::poll(fds, 2, kPollTimeoutMs);
     if (n < 0 && errno != EINTR) {
       logger("livox")->error("poll: {}", std::strerror(errno));

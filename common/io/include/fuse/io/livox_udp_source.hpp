@@ -9,6 +9,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <string>
@@ -28,6 +29,9 @@ struct LivoxUdpConfig {
   std::size_t queue_capacity = 4096;  ///< events (IMU samples and scans) waiting for next()
   /// next() ends the stream after this long without a packet; 0 waits for ever (until stop()).
   double idle_timeout_s = 0.0;
+  /// Polled by the receiver thread (every 50 ms): true ends the stream, as stop() does (e.g. a
+  /// service's SIGTERM flag, so a blocked next() returns).
+  std::function<bool()> should_stop;
 };
 
 /// Counter keys besides livox::reject::*.
