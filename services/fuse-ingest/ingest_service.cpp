@@ -24,7 +24,7 @@ double unix_now() {
 IngestService::IngestService(const SystemConfig& config, transport::Participant& participant, IngestOptions options)
     : config_(config),
       options_(std::move(options)),
-      source_(std::make_unique<io::PrefetchSource>(io::open_sensor_source(options_.input),
+      source_(std::make_unique<io::PrefetchSource>(open_ingest_input(options_.input),
                                                 static_cast<std::size_t>(config.ingest.prefetch_events))),
       counters_(logger(kName)),
       imu_(participant, transport::topics::kImu),
@@ -45,8 +45,12 @@ IngestService::IngestService(const SystemConfig& config, transport::Participant&
         service_states_[h.service().to_string()] = h.state().to_string();
       });
   health_ = std::make_unique<HealthReporter>(participant, kName, config.health.period_s, [this] { return health(); });
-  logger(kName)->info("replaying {} ({}{})", source_->describe(), options_.mode,
-                      options_.mode == "realtime" ? ", rate " + std::to_string(options_.rate) : "");
+  if (options_.input.live()) {
+    logger(kName)->info("publishing {} live, as it arrives", source_->describe());
+  } else {
+    logger(kName)->info("replaying {} ({}{})", source_->describe(), options_.mode,
+                        options_.mode == "realtime" ? ", rate " + std::to_string(options_.rate) : "");
+  }
 }
 
 bool IngestService::wait_for_pipeline() {
@@ -106,7 +110,9 @@ int IngestService::run() {
     std::lock_guard<std::mutex> lock(mutex_);
     state_ = "running";
   }
-  const bool lockstep = options_.mode == "lockstep";
+  // A live sensor is published as it arrives: no schedule, no lockstep.
+  const bool live = options_.input.live();
+  const bool lockstep = options_.mode == "lockstep" && !live;
   // A restarted lockstep replay resumes after the last scan fuse-update answered.
   double resume_after = -1.0;
   if (lockstep) {
@@ -126,6 +132,10 @@ int IngestService::run() {
     while (!stop_requested() && source_->next(ev)) {
       const double t = ev.arrival_time();
       if (!t0) t0 = t;
+      if (live) {
+        publish(ev);
+        continue;
+      }
       if (lockstep) {
         if (t <= resume_after) {
           ++skipped;

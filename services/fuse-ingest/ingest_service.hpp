@@ -1,5 +1,6 @@
-// fuse-ingest (DESIGN §2): replays a recording (MCAP) or a sequence directory onto `imu` and
-// `lidar/scan`, in one of two modes:
+// fuse-ingest (DESIGN §2): replays a recording (MCAP), a sequence directory or an Ouster pcap
+// capture onto `imu` and `lidar/scan`, or publishes a live sensor's data (Ouster or Livox over
+// UDP, see ingest_input.hpp) as it arrives. Replays run in one of two modes:
 //   realtime: each event at its time on a wall-clock schedule, t_wall = start + (t − t0) / rate.
 //             A fixed --start-wall makes a restarted ingest resume where the schedule is now:
 //             what played while it was down is a data gap, as with a real sensor;
@@ -20,11 +21,12 @@
 #include "fuse/service/health.hpp"
 #include "fuse/service/system_config.hpp"
 #include "fuse/transport/rpc.hpp"
+#include "ingest_input.hpp"
 
 namespace fuse::service {
 
 struct IngestOptions {
-  std::string input;
+  IngestInput input;
   std::string mode;                     ///< lockstep | realtime
   double rate = 1.0;
   std::optional<double> start_wall;     ///< realtime: UNIX seconds at which the first event plays

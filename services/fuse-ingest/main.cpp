@@ -1,4 +1,7 @@
-// fuse-ingest: replays a recording or a sequence directory (see ingest_service.hpp).
+// fuse-ingest: replays a recording, a sequence directory or an Ouster capture, or publishes a
+// live Ouster / Livox sensor (see ingest_service.hpp, ingest_input.hpp).
+#include <set>
+
 #include "fuse/core/logging.hpp"
 #include "fuse/service/runtime.hpp"
 #include "ingest_service.hpp"
@@ -8,13 +11,25 @@ int main(int argc, char** argv) {
   ServiceArgs args;
   SystemConfig config;
   int exit_code = 0;
-  if (!start_service("fuse-ingest", argc, argv, {"input", "mode", "rate", "start-wall"}, args, config, exit_code)) {
+  std::set<std::string> allowed = {"mode", "rate", "start-wall"};
+  allowed.insert(std::begin(kInputOptions), std::end(kInputOptions));
+  if (!start_service("fuse-ingest", argc, argv, allowed, args, config, exit_code)) {
     return exit_code;
   }
   auto log = fuse::logger("fuse-ingest");
   IngestOptions options;
-  options.input = args.get("input");
   options.mode = args.get("mode", config.ingest.mode);
+  constexpr const char* kUsage =
+      "usage: fuse-ingest --config FILE (--input RECORDING|SEQDIR | --input FILE.pcap --ouster-metadata FILE.json | "
+      "--ouster-udp ADDRESS[:LIDAR_PORT:IMU_PORT] --ouster-metadata FILE.json | --livox-udp ADDRESS[:POINT_PORT:IMU_PORT]) "
+      "[--mode lockstep|realtime] [--rate R in (0,100]] [--start-wall UNIX_S]";
+  try {
+    options.input = parse_ingest_input(args);
+  } catch (const std::invalid_argument& e) {
+    log->error("{}", e.what());
+    log->error("{}", kUsage);
+    return 2;
+  }
   try {
     options.rate = std::stod(args.get("rate", std::to_string(config.ingest.rate)));
     if (!args.get("start-wall").empty()) options.start_wall = std::stod(args.get("start-wall"));
@@ -22,9 +37,8 @@ int main(int argc, char** argv) {
     log->error("--rate and --start-wall take numbers");
     return 2;
   }
-  if (options.input.empty() || (options.mode != "lockstep" && options.mode != "realtime") ||
-      !(options.rate > 0.0 && options.rate <= 100.0)) {
-    log->error("usage: fuse-ingest --config FILE --input PATH [--mode lockstep|realtime] [--rate R in (0,100]] [--start-wall UNIX_S]");
+  if ((options.mode != "lockstep" && options.mode != "realtime") || !(options.rate > 0.0 && options.rate <= 100.0)) {
+    log->error("{}", kUsage);
     return 2;
   }
   try {

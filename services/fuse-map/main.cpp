@@ -5,11 +5,15 @@
 // Serves the persistent map of map_server.directory (--map-dir overrides it): applies the
 // observations of map/observation (journal first), publishes map/chunk and map/status, answers
 // map/control (fuse-map-ctl) and a heartbeat on health, until SIGINT or SIGTERM. Nothing needs
-// saving on the way out: every acknowledged observation is already in the journal.
+// saving on the way out: every acknowledged observation is already in the journal (fsync'd
+// before it is acknowledged); the observation in hand is finished first. Under systemd
+// (Type=notify, notify.hpp) it sends READY=1 once the map is loaded, WATCHDOG=1 while its worker
+// makes progress, and STOPPING=1 on the way out.
 // Exit codes: 0 stopped by a signal, 1 could not start (map directory unusable or locked by
 // another fuse-map, transport), 2 usage or config.
 #include "fuse/core/logging.hpp"
 #include "fuse/service/health.hpp"
+#include "fuse/service/notify.hpp"
 #include "fuse/service/runtime.hpp"
 #include "map_service.hpp"
 
@@ -32,14 +36,21 @@ int main(int argc, char** argv) {
     auto participant = transport::make_participant(config.transport, "fuse-map");
     map_service::MapService map(config.map_server, *participant);
     service::HealthReporter health(*participant, "fuse-map", config.health.period_s, [&] { return map.health(); });
-    while (!service::wait_for_stop(3600.0)) {
+    // Start-up complete (map loaded, endpoints created): READY; then the watchdog while the
+    // worker that journals and applies observations keeps making progress.
+    service::Notifier& notify = service::notifier();
+    notify.ready("serving " + config.map_server.directory);
+    while (!service::wait_for_stop(notify.wake_interval_s())) {
+      if (map.worker_silence_s() < map_service::MapService::kWorkerStuckS) notify.watchdog();
     }
     log->info("stop requested");
+    notify.stopping("finishing the observation in hand; the journal holds every acknowledged one");
     map.stop();
     health.publish_now();
   } catch (const std::exception& e) {
     log->error("{}", e.what());
     return 1;
   }
+  log->info("stopped: map journal closed");  // the core (and its journal file) went with `map`
   return 0;
 }

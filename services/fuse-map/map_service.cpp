@@ -71,6 +71,7 @@ MapService::MapService(const MapServerConfig& config, transport::Participant& pa
     state_ = "running";
   }
 
+  worker_alive_ns_ = std::chrono::steady_clock::now().time_since_epoch().count();
   worker_ = std::thread([this] { run(); });
   try {
     observations_ = std::make_unique<transport::Subscriber<fuse_msgs::MapObservation>>(
@@ -102,6 +103,11 @@ void MapService::stop() {
   if (worker_.joinable()) worker_.join();
   std::lock_guard<std::mutex> lock(health_mutex_);
   state_ = "stopping";
+}
+
+double MapService::worker_silence_s() const {
+  const std::chrono::steady_clock::duration beat(worker_alive_ns_.load());
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch() - beat).count();
 }
 
 service::HealthSnapshot MapService::health() const {
@@ -157,7 +163,9 @@ void MapService::run() {
     Job job;
     {
       std::unique_lock<std::mutex> lock(queue_mutex_);
-      queue_cv_.wait(lock, [this] { return stop_ || !queue_.empty(); });
+      while (!queue_cv_.wait_for(lock, kWorkerBeat, [this] { return stop_ || !queue_.empty(); })) {
+        worker_alive_ns_ = std::chrono::steady_clock::now().time_since_epoch().count();
+      }
       if (stop_) return;  // queued observations stay unacknowledged
       job = std::move(queue_.front());
       queue_.pop_front();
@@ -176,6 +184,7 @@ void MapService::run() {
       log()->error("worker: {}", e.what());
     }
     refresh_stats();
+    worker_alive_ns_ = std::chrono::steady_clock::now().time_since_epoch().count();
   }
 }
 

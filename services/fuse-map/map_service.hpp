@@ -16,6 +16,8 @@
 // reports itself degraded and keeps running, the next journaled observation clears that.
 #pragma once
 
+#include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
@@ -57,6 +59,13 @@ class MapService {
 
   /// State, counters and last error for the heartbeat (any thread).
   service::HealthSnapshot health() const;
+
+  /// Seconds since the worker last showed progress (it does at least every kWorkerBeat while
+  /// idle, and after each job): the main loop pings the service manager's watchdog only while
+  /// this stays below kWorkerStuckS, so a worker stuck in one job gets the service restarted.
+  double worker_silence_s() const;
+  static constexpr std::chrono::milliseconds kWorkerBeat{250};
+  static constexpr double kWorkerStuckS = 5.0;
 
  private:
   using ControlServer = transport::RpcServer<fuse_msgs::MapControlRequest, fuse_msgs::MapControlReply>;
@@ -105,6 +114,7 @@ class MapService {
   std::size_t queued_observations_ = 0;
   bool stop_ = false;
   std::thread worker_;
+  std::atomic<std::int64_t> worker_alive_ns_{0};  ///< steady clock of the worker's last beat
 
   std::unique_ptr<transport::Subscriber<fuse_msgs::MapObservation>> observations_;
   std::unique_ptr<ControlServer> control_;

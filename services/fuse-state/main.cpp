@@ -1,6 +1,7 @@
 // fuse-state: propagation, state history, query and history RPCs (see state_service.hpp).
 #include "fuse/core/logging.hpp"
 #include "fuse/io/sensor_source.hpp"
+#include "fuse/service/notify.hpp"
 #include "fuse/service/runtime.hpp"
 #include "state_service.hpp"
 
@@ -19,7 +20,9 @@ int main(int argc, char** argv) {
     auto participant = fuse::transport::make_participant(config.transport, "fuse-state");
     StateService service(config, *participant, args.get("trajectory"));
     log->info("running");
+    notifier().ready("endpoints created; recovering, then serving");  // does not wait for the others
     service.run();
+    notifier().stopping();
   } catch (const std::exception& e) {
     log->error("{}", e.what());
     return 1;

@@ -7,6 +7,7 @@
 #include <optional>
 
 #include "fuse/core/logging.hpp"
+#include "fuse/service/notify.hpp"
 #include "fuse/service/runtime.hpp"
 
 namespace fuse::service {
@@ -76,13 +77,13 @@ void StateService::run() {
     if (!matched && correction_sub_->matched() > 0) matched = now;
     if (matched && std::chrono::duration<double>(now - *matched).count() >= kBacklogSettle) break;
     if (std::chrono::duration<double>(now - start).count() >= config_.state.recovery_wait_s) break;
-    wait_for_stop(0.01);
+    wait_for_stop_alive(0.01);
   }
   if (!stop_requested()) {
     std::lock_guard<std::mutex> lock(mutex_);
     go_live();
   }
-  while (!wait_for_stop(0.1)) {
+  while (!wait_for_stop_alive(0.1)) {  // pings the service manager's watchdog
   }
   health_->publish_now();
 }

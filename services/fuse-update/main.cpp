@@ -1,5 +1,6 @@
 // fuse-update: LiDAR update against the local map replica (see update_service.hpp).
 #include "fuse/core/logging.hpp"
+#include "fuse/service/notify.hpp"
 #include "fuse/service/runtime.hpp"
 #include "update_service.hpp"
 
@@ -14,7 +15,9 @@ int main(int argc, char** argv) {
     auto participant = fuse::transport::make_participant(config.transport, "fuse-update");
     UpdateService service(config, *participant);
     log->info("running");
+    notifier().ready("endpoints created; building the map replica");  // does not wait for fuse-map
     service.run();
+    notifier().stopping();
   } catch (const std::exception& e) {
     log->error("{}", e.what());
     return 1;

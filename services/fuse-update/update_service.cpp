@@ -7,6 +7,7 @@
 #include "fuse/estimation/estimator.hpp"
 #include "fuse/io/cdr_codec.hpp"
 #include "fuse/io/sensor_source.hpp"
+#include "fuse/service/notify.hpp"
 #include "fuse/service/runtime.hpp"
 
 namespace fuse::service {
@@ -117,6 +118,7 @@ void UpdateService::sync_map(double timeout_s) {
       std::lock_guard<std::mutex> lock(mutex_);
       if (complete() || Clock::now() >= end || stop_requested()) break;
     }
+    notifier().watchdog();
     std::this_thread::sleep_for(Ms(10));
   }
   std::lock_guard<std::mutex> lock(mutex_);
@@ -148,6 +150,7 @@ void UpdateService::sync_map(double timeout_s) {
 void UpdateService::run() {
   sync_map(config_.update.map_sync_timeout_s);
   while (!stop_requested()) {
+    notifier().watchdog();  // the loop wakes at least every 50 ms, scans or not
     LidarScan scan;
     bool have_scan = false;
     bool resync = false;

@@ -1,5 +1,6 @@
 #include "fuse/io/livox_scan_assembler.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -11,11 +12,23 @@ ScanAssembler::ScanAssembler(double period_s) : period_(period_s) {
   }
 }
 
-void ScanAssembler::start(double t_start) {
-  start_ = t_start;
+namespace {
+/// Points within this fraction of a period before a window boundary count as on it: a point
+/// taken at the boundary's time (packets start on it every scan) must not fall on either side
+/// depending on how its time and the boundary were rounded.
+constexpr double kBoundaryTolerance = 1e-6;
+}  // namespace
+
+void ScanAssembler::start(std::uint64_t index) {
+  index_ = index;
+  start_ = origin_ + static_cast<double>(index) * period_;
   current_ = LidarScan{};
-  current_.t_start = t_start;
-  current_.t_end = t_start + period_;
+  current_.t_start = start_;
+  current_.t_end = origin_ + static_cast<double>(index + 1) * period_;
+}
+
+std::int64_t ScanAssembler::window(double t) const {
+  return static_cast<std::int64_t>(std::floor((t - origin_) / period_ + kBoundaryTolerance));
 }
 
 void ScanAssembler::add(const std::vector<Point>& points, std::vector<LidarScan>& done) {
@@ -27,29 +40,28 @@ void ScanAssembler::add(const std::vector<Point>& points, std::vector<LidarScan>
     if (!started_) {
       started_ = true;
       origin_ = p.t;
-      index_ = 0;
-      start(origin_);
+      start(0);
     }
-    if (p.t < start_) {
+    // One rule decides a point's window, so a point exactly on a boundary opens the next scan.
+    const std::int64_t w = window(p.t);
+    if (w < static_cast<std::int64_t>(index_)) {
       ++late_;
       continue;
     }
-    if (p.t >= current_.t_end) {
+    if (w > static_cast<std::int64_t>(index_)) {
       // Close the current scan (if it has points) and jump to the window holding p.
       if (!current_.points.empty()) {
         current_.sequence = sequence_++;
         done.push_back(std::move(current_));
       }
-      index_ = static_cast<std::uint64_t>(std::floor((p.t - origin_) / period_));
-      start(origin_ + static_cast<double>(index_) * period_);
-      if (p.t >= current_.t_end) start(current_.t_end);  // rounding at a window boundary
+      start(static_cast<std::uint64_t>(w));
     }
     LidarPoint q;
     q.x = p.x;
     q.y = p.y;
     q.z = p.z;
     q.intensity = p.reflectivity;
-    q.t_rel = static_cast<float>(p.t - start_);
+    q.t_rel = static_cast<float>(std::max(0.0, p.t - start_));  // ≥ −tolerance: on the boundary
     q.ring = 0;  // the Mid-360 has no rings in its packets
     current_.points.push_back(q);
   }
@@ -59,7 +71,7 @@ std::optional<LidarScan> ScanAssembler::flush() {
   if (!started_ || current_.points.empty()) return std::nullopt;
   current_.sequence = sequence_++;
   LidarScan out = std::move(current_);
-  start(out.t_end);
+  start(index_ + 1);
   return out;
 }
 

@@ -28,7 +28,8 @@ class ScanAssembler {
   std::uint64_t empty_returns() const { return empty_; }
 
  private:
-  void start(double t_start);
+  void start(std::uint64_t index);  ///< opens window `index` (from origin_)
+  std::int64_t window(double t) const;  ///< the window holding time t
 
   double period_;
   bool started_ = false;

@@ -1,0 +1,105 @@
+#include "ingest_input.hpp"
+
+#include <stdexcept>
+
+#include "fuse/io/livox_udp_source.hpp"
+#include "fuse/io/ouster_pcap_source.hpp"
+#include "fuse/io/ouster_udp_source.hpp"
+
+namespace fuse::service {
+
+namespace {
+
+std::uint16_t port(const std::string& text, const std::string& option) {
+  std::size_t used = 0;
+  unsigned long v = 0;
+  try {
+    v = std::stoul(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size() || v > 65535) {
+    throw std::invalid_argument("--" + option + ": '" + text + "' is not a UDP port (0..65535)");
+  }
+  return static_cast<std::uint16_t>(v);
+}
+
+/// ADDRESS or ADDRESS:PORT_A:PORT_B.
+void parse_endpoint(const std::string& value, const std::string& option, IngestInput& in) {
+  const auto first = value.find(':');
+  if (first == std::string::npos) {
+    in.address = value;
+  } else {
+    const auto second = value.find(':', first + 1);
+    if (second == std::string::npos || value.find(':', second + 1) != std::string::npos) {
+      throw std::invalid_argument("--" + option + " takes ADDRESS or ADDRESS:PORT:IMU_PORT, not '" + value + "'");
+    }
+    in.address = value.substr(0, first);
+    in.port_a = port(value.substr(first + 1, second - first - 1), option);
+    in.port_b = port(value.substr(second + 1), option);
+  }
+  if (in.address.empty()) throw std::invalid_argument("--" + option + ": the local address is empty (0.0.0.0 for all)");
+}
+
+bool ends_with(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+}  // namespace
+
+IngestInput parse_ingest_input(const ServiceArgs& args) {
+  IngestInput in;
+  const std::string input = args.get("input"), ouster_udp = args.get("ouster-udp"), livox_udp = args.get("livox-udp");
+  in.ouster_metadata = args.get("ouster-metadata");
+  const int given = !input.empty() + !ouster_udp.empty() + !livox_udp.empty();
+  if (given != 1) throw std::invalid_argument("give exactly one of --input, --ouster-udp, --livox-udp");
+  if (!input.empty()) {
+    in.path = input;
+    if (ends_with(input, ".pcap")) {
+      if (in.ouster_metadata.empty()) {
+        throw std::invalid_argument("--input " + input + " is a pcap capture: --ouster-metadata FILE.json is needed");
+      }
+      in.kind = IngestInput::Kind::kOusterPcap;
+    } else if (!in.ouster_metadata.empty()) {
+      throw std::invalid_argument("--ouster-metadata goes with a .pcap --input or --ouster-udp");
+    }
+  } else if (!ouster_udp.empty()) {
+    if (in.ouster_metadata.empty()) throw std::invalid_argument("--ouster-udp needs --ouster-metadata FILE.json");
+    in.kind = IngestInput::Kind::kOusterUdp;
+    parse_endpoint(ouster_udp, "ouster-udp", in);
+  } else {
+    if (!in.ouster_metadata.empty()) throw std::invalid_argument("--ouster-metadata does not go with --livox-udp");
+    in.kind = IngestInput::Kind::kLivoxUdp;
+    parse_endpoint(livox_udp, "livox-udp", in);
+  }
+  return in;
+}
+
+std::unique_ptr<io::SensorSource> open_ingest_input(const IngestInput& in) {
+  switch (in.kind) {
+    case IngestInput::Kind::kOusterPcap:
+      return std::make_unique<io::OusterPcapSource>(io::OusterPcapConfig{in.path, in.ouster_metadata, {}, {}});
+    case IngestInput::Kind::kOusterUdp: {
+      io::OusterUdpConfig c;
+      c.metadata = in.ouster_metadata;
+      c.address = in.address;
+      c.lidar_port = in.port_a;
+      c.imu_port = in.port_b;
+      c.should_stop = [] { return stop_requested(); };
+      return std::make_unique<io::OusterUdpSource>(c);
+    }
+    case IngestInput::Kind::kLivoxUdp: {
+      io::LivoxUdpConfig c;
+      c.address = in.address;
+      if (in.port_a) c.point_port = *in.port_a;
+      if (in.port_b) c.imu_port = *in.port_b;
+      c.should_stop = [] { return stop_requested(); };
+      return std::make_unique<io::LivoxUdpSource>(c);
+    }
+    case IngestInput::Kind::kRecording:
+      break;
+  }
+  return io::open_sensor_source(in.path);
+}
+
+}  // namespace fuse::service

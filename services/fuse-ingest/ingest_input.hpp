@@ -1,0 +1,43 @@
+// What fuse-ingest reads, from its command line:
+//   --input PATH                                   MCAP recording or sequence directory (replay)
+//   --input FILE.pcap --ouster-metadata FILE.json  Ouster capture (replay, like a recording)
+//   --ouster-udp ADDRESS[:LIDAR_PORT:IMU_PORT] --ouster-metadata FILE.json
+//                                                  live Ouster sensor; ports from the metadata
+//                                                  unless given (0: any free port)
+//   --livox-udp ADDRESS[:POINT_PORT:IMU_PORT]      live Livox Mid-360 (SDK2 protocol; default
+//                                                  ports 56301 / 56401)
+// Live inputs publish each event as it arrives and end only on SIGTERM/SIGINT.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "fuse/io/sensor_source.hpp"
+#include "fuse/service/runtime.hpp"
+#include "fuse/service/system_config.hpp"
+
+namespace fuse::service {
+
+struct IngestInput {
+  enum class Kind { kRecording, kOusterPcap, kOusterUdp, kLivoxUdp };
+  Kind kind = Kind::kRecording;
+  std::string path;             ///< recording, sequence directory or pcap
+  std::string ouster_metadata;  ///< Ouster inputs
+  std::string address;          ///< live inputs: local IPv4 address to bind
+  std::optional<std::uint16_t> port_a, port_b;  ///< live inputs: lidar/point and IMU ports
+  bool live() const { return kind == Kind::kOusterUdp || kind == Kind::kLivoxUdp; }
+};
+
+/// The command-line options fuse-ingest reads for its input (for start_service's list).
+inline const char* const kInputOptions[] = {"input", "ouster-metadata", "ouster-udp", "livox-udp"};
+
+/// Reads the input options; throws std::invalid_argument naming what is wrong or missing.
+IngestInput parse_ingest_input(const ServiceArgs& args);
+
+/// Opens the input (live sources poll stop_requested() so SIGTERM ends them). Throws
+/// io::InputError when it cannot be opened.
+std::unique_ptr<io::SensorSource> open_ingest_input(const IngestInput& input);
+
+}  // namespace fuse::service
