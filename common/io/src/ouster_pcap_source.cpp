@@ -9,7 +9,7 @@ ouster::Metadata load_ouster_metadata(const std::string& path, std::optional<std
   ouster::Metadata meta = ouster::load_metadata(path);
   if (lidar_port) meta.udp_port_lidar = *lidar_port;
   if (imu_port) meta.udp_port_imu = *imu_port;
-  if (meta.udp_port_lidar == 0 && meta.udp_port_imu == 0) {
+  if (meta.udp_port_lidar == 0 && meta.udp_port_imu == 0 && !lidar_port && !imu_port) {
     throw InputError("Ouster metadata " + path + ": neither a lidar nor an IMU UDP port (both 0)");
   }
   return meta;
