@@ -12,6 +12,13 @@ ouster::Metadata load_ouster_metadata(const std::string& path, std::optional<std
   if (meta.udp_port_lidar == 0 && meta.udp_port_imu == 0 && !lidar_port && !imu_port) {
     throw InputError("Ouster metadata " + path + ": neither a lidar nor an IMU UDP port (both 0)");
   }
+  // The services take the extrinsic from the config (estimator.extrinsic): say what it is here.
+  const Eigen::Isometry3d T = meta.T_imu_sensor();
+  const Eigen::Quaterniond q(T.linear());
+  logger("ouster")->info(
+      "scans are in the sensor frame; from the metadata, estimator.extrinsic (T_imu_lidar) is translation [{:.6f}, "
+      "{:.6f}, {:.6f}] rotation_xyzw [{:.6f}, {:.6f}, {:.6f}, {:.6f}]",
+      T.translation().x(), T.translation().y(), T.translation().z(), q.x(), q.y(), q.z(), q.w());
   return meta;
 }
 
