@@ -8,6 +8,7 @@
 
 #include "fuse/io/recording.hpp"
 #include "fuse/io/sensor_source.hpp"
+#include "arguments.hpp"
 #include "importer.hpp"
 #include "message_encoder.hpp"
 #include "ros1_bag_writer.hpp"
@@ -187,6 +188,41 @@ TEST(Import, TypeNames) {
   EXPECT_TRUE(is_lidar_type("sensor_msgs/msg/PointCloud2", &k));
   EXPECT_EQ(k, LidarKind::kPointCloud2);
   EXPECT_FALSE(is_lidar_type("sensor_msgs/LaserScan"));
+}
+
+}  // namespace
+}  // namespace fuse::import
+
+namespace fuse::import {
+namespace {
+
+TEST(ImportArguments, ParsedAndCheckedBeforeAnythingIsRead) {
+  const Arguments a = parse_arguments({"--input", "x.bag", "--out", "y.mcap", "--imu-topic", "/imu", "--time-field",
+                                       "time", "--imu-accel-unit", "g", "--extrinsic", "0.1,0,-0.2,0,0,0.7071068,0.7071068"});
+  EXPECT_EQ(a.import.imu_topic, "/imu");
+  EXPECT_EQ(a.import.time_field, "time");
+  EXPECT_DOUBLE_EQ(a.import.accel_scale, 9.80665);
+  ASSERT_TRUE(a.T_imu_lidar);
+  EXPECT_NEAR(a.T_imu_lidar->translation().z(), -0.2, 1e-12);
+  EXPECT_NEAR((a.T_imu_lidar->linear() * Eigen::Vector3d::UnitX()).y(), 1.0, 1e-6);  // 90 deg about z
+  auto error_of = [](std::vector<std::string> args) {
+    try {
+      parse_arguments(args);
+      return std::string();
+    } catch (const ArgumentError& e) {
+      return std::string(e.what());
+    }
+  };
+  EXPECT_NE(error_of({"--out", "y"}).find("--input is required"), std::string::npos);
+  EXPECT_NE(error_of({"--input", "x"}).find("--out is required"), std::string::npos);
+  EXPECT_NE(error_of({"--input", "x", "--out", "y", "--time-field", "stamp"}).find("not t, time"), std::string::npos);
+  EXPECT_NE(error_of({"--input", "x", "--out", "y", "--imu-accel-unit", "ft"}).find("not g or mps2"), std::string::npos);
+  EXPECT_NE(error_of({"--input", "x", "--out", "y", "--extrinsic", "1,2,3"}).find("7 comma-separated"), std::string::npos);
+  EXPECT_NE(error_of({"--input", "x", "--out", "y", "--extrinsic", "0,0,0,0,0,0,2"}).find("unit norm"), std::string::npos);
+  EXPECT_NE(error_of({"--input", "x", "--out", "y", "--extrinsic", "0,0,a,0,0,0,1"}).find("'a' is not a number"),
+            std::string::npos);
+  EXPECT_NE(error_of({"--input"}).find("needs a value"), std::string::npos);
+  EXPECT_NE(error_of({"--bogus"}).find("unknown argument"), std::string::npos);
 }
 
 }  // namespace

@@ -58,6 +58,17 @@ TEST_P(InteropBag, ImportedRecordingMatchesTheKnownContents) {
             std::string::npos) << text.str();
 
   auto source = fuse::io::open_sensor_source(out.string());
+  if (c["extrinsic"].IsSequence()) {
+    const YAML::Node x = c["extrinsic"];
+    ASSERT_TRUE(source->T_imu_lidar()) << "no calibration record";
+    const Eigen::Isometry3d T = *source->T_imu_lidar();
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(T.translation()[k], x[k].as<double>(), 1e-12);
+    const Eigen::Quaterniond q(T.linear());
+    EXPECT_NEAR(std::abs(q.coeffs().dot(Eigen::Vector4d(x[3].as<double>(), x[4].as<double>(), x[5].as<double>(),
+                                                         x[6].as<double>()))), 1.0, 1e-9);
+  } else {
+    EXPECT_FALSE(source->T_imu_lidar());
+  }
   const YAML::Node imu = c["imu"], scans = c["scans"];
   std::size_t ni = 0, ns = 0;
   fuse::io::SensorEvent ev;

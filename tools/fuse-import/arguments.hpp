@@ -1,6 +1,8 @@
 // Command line of fuse-import.
 #pragma once
 
+#include <Eigen/Geometry>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -19,6 +21,7 @@ struct Arguments {
   std::string input;  ///< --input: .bag, rosbag2 directory, .db3 or .mcap
   std::string out;    ///< --out: the recording to write
   ImportConfig import;
+  std::optional<Eigen::Isometry3d> T_imu_lidar;  ///< --extrinsic: stored as the recording's calibration
   bool help = false;
 };
 

@@ -52,6 +52,7 @@ int main(int argc, char** argv) {
     auto bag = fuse::rosbag::open_bag(args.input);
     const fuse::import::TopicChoice topics = fuse::import::choose_topics(*bag, args.import);
     fuse::io::RecordingWriter writer(args.out);
+    if (args.T_imu_lidar) writer.set_calibration(*args.T_imu_lidar);
     const fuse::import::ImportSummary s = fuse::import::import_bag(*bag, topics, args.import, writer);
     writer.close();
     print_summary(*bag, topics, s, args.out);

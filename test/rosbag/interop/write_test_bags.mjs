@@ -386,7 +386,10 @@ for (const c of cases) {
   for (let k = 0; k < SCANS; ++k) scans.push(expectedScan(k, c.conv));
   const args = ["--input", input];
   if (c.inG) args.push("--imu-accel-unit", "g");
-  expected.cases.push({ name: c.name, args, imu, scans, malformed_lidar: 1, other_topic_messages: SCANS });
+  // One case also stores the LiDAR-IMU extrinsic (a 90 degree yaw and an offset).
+  const extrinsic = c.name === "ros1_ouster_t" ? [0.05, -0.02, 0.1, 0, 0, Math.SQRT1_2, Math.SQRT1_2] : null;
+  if (extrinsic) args.push("--extrinsic", extrinsic.join(","));
+  expected.cases.push({ name: c.name, args, imu, scans, extrinsic, malformed_lidar: 1, other_topic_messages: SCANS });
   console.log(`${c.name}: ${msgs.length} messages -> ${input}`);
 }
 fs.writeFileSync(path.join(out, "expected.json"), JSON.stringify(expected));
