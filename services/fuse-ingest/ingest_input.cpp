@@ -5,6 +5,7 @@
 #include "fuse/io/livox_udp_source.hpp"
 #include "fuse/io/ouster_pcap_source.hpp"
 #include "fuse/io/ouster_udp_source.hpp"
+#include "ouster_bag_source.hpp"
 
 namespace fuse::service {
 
@@ -55,13 +56,15 @@ IngestInput parse_ingest_input(const ServiceArgs& args) {
   if (given != 1) throw std::invalid_argument("give exactly one of --input, --ouster-udp, --livox-udp");
   if (!input.empty()) {
     in.path = input;
-    if (ends_with(input, ".pcap")) {
+    if (ends_with(input, ".bag")) {
+      in.kind = IngestInput::Kind::kOusterBag;  // metadata from the bag unless given
+    } else if (ends_with(input, ".pcap")) {
       if (in.ouster_metadata.empty()) {
         throw std::invalid_argument("--input " + input + " is a pcap capture: --ouster-metadata FILE.json is needed");
       }
       in.kind = IngestInput::Kind::kOusterPcap;
     } else if (!in.ouster_metadata.empty()) {
-      throw std::invalid_argument("--ouster-metadata goes with a .pcap --input or --ouster-udp");
+      throw std::invalid_argument("--ouster-metadata goes with a .pcap or .bag --input or --ouster-udp");
     }
   } else if (!ouster_udp.empty()) {
     if (in.ouster_metadata.empty()) throw std::invalid_argument("--ouster-udp needs --ouster-metadata FILE.json");
@@ -79,6 +82,8 @@ std::unique_ptr<io::SensorSource> open_ingest_input(const IngestInput& in) {
   switch (in.kind) {
     case IngestInput::Kind::kOusterPcap:
       return std::make_unique<io::OusterPcapSource>(io::OusterPcapConfig{in.path, in.ouster_metadata, {}, {}});
+    case IngestInput::Kind::kOusterBag:
+      return std::make_unique<OusterBagSource>(in.path, in.ouster_metadata);
     case IngestInput::Kind::kOusterUdp: {
       io::OusterUdpConfig c;
       c.metadata = in.ouster_metadata;

@@ -1,6 +1,8 @@
 // What fuse-ingest reads, from its command line:
 //   --input PATH                                   MCAP recording or sequence directory (replay)
 //   --input FILE.pcap --ouster-metadata FILE.json  Ouster capture (replay, like a recording)
+//   --input FILE.bag [--ouster-metadata FILE.json] ouster_ros packets in a ROS 1 bag (replay);
+//                                                  the metadata from the bag unless given
 //   --ouster-udp ADDRESS[:LIDAR_PORT:IMU_PORT] --ouster-metadata FILE.json
 //                                                  live Ouster sensor; ports from the metadata
 //                                                  unless given (0: any free port)
@@ -21,7 +23,7 @@
 namespace fuse::service {
 
 struct IngestInput {
-  enum class Kind { kRecording, kOusterPcap, kOusterUdp, kLivoxUdp };
+  enum class Kind { kRecording, kOusterPcap, kOusterBag, kOusterUdp, kLivoxUdp };
   Kind kind = Kind::kRecording;
   std::string path;             ///< recording, sequence directory or pcap
   std::string ouster_metadata;  ///< Ouster inputs

@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   options.mode = args.get("mode", config.ingest.mode);
   constexpr const char* kUsage =
       "usage: fuse-ingest --config FILE (--input RECORDING|SEQDIR | --input FILE.pcap --ouster-metadata FILE.json | "
+      "--input OUSTER.bag [--ouster-metadata FILE.json] | "
       "--ouster-udp ADDRESS[:LIDAR_PORT:IMU_PORT] --ouster-metadata FILE.json | --livox-udp ADDRESS[:POINT_PORT:IMU_PORT]) "
       "[--mode lockstep|realtime] [--rate R in (0,100]] [--start-wall UNIX_S]";
   try {
