@@ -241,6 +241,9 @@ TEST(Cloud, InconsistentCloudsAreRefused) {
   m = good;
   m.fields.pop_back();
   expect_error(m, "no per-point time field");
+  m = good;
+  m.fields.back().name = "time";  // uint32 ns read as seconds: 50 ms become 5e7 s
+  expect_error(m, "not one scan (wrong --time-field or unit?)");
   EXPECT_THROW(cloud_to_scan(good, "ring", counts, "cloud"), io::InputError);  // not a time convention
 }
 

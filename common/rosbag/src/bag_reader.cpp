@@ -22,7 +22,9 @@ class Ros1Bag final : public BagReader {
  public:
   explicit Ros1Bag(const std::string& path) : bag_(path) {
     const auto counts = bag_.indexed_counts();
-    for (const auto& [id, c] : bag_.connections()) {
+    for (const auto& entry : bag_.connections()) {
+      const std::uint32_t id = entry.first;
+      const Ros1Connection& c = entry.second;
       auto it = std::find_if(topics_.begin(), topics_.end(), [&](const BagTopic& t) { return t.name == c.topic; });
       if (it == topics_.end()) {
         topics_.push_back({c.topic, c.type, Serialization::kRos1, 0});

@@ -24,6 +24,10 @@ struct TimeConvention {
 constexpr TimeConvention kTimeConventions[] = {
     {"t", 1e-9, false}, {"time", 1.0, false}, {"timestamp", 1.0, true}, {"offset_time", 1e-9, false}};
 
+/// Longest time a scan's points may span, and farthest they may lie from the header stamp.
+constexpr double kMaxScanSpanS = 10.0;
+constexpr double kMaxStampOffsetS = 3600.0;
+
 const PointField* find_field(const PointCloud2Msg& c, const char* name) {
   for (const auto& f : c.fields) {
     if (f.name == name) return &f;
@@ -58,6 +62,16 @@ void check_field(const PointCloud2Msg& c, const PointField& f, const std::string
   if (std::uint64_t{f.offset} + size > c.point_step) {
     throw InputError(context + ": field '" + f.name + "' (offset " + std::to_string(f.offset) + ", " +
                      std::to_string(size) + " bytes) lies outside point_step " + std::to_string(c.point_step));
+  }
+}
+
+/// Point times that cannot belong to one scan mean a wrong time field or unit: refused.
+void check_times(const std::vector<double>& offsets_s, const std::string& context) {
+  if (offsets_s.empty()) return;
+  const auto [lo, hi] = std::minmax_element(offsets_s.begin(), offsets_s.end());
+  if (*hi - *lo > kMaxScanSpanS || std::abs(*lo) > kMaxStampOffsetS || std::abs(*hi) > kMaxStampOffsetS) {
+    throw InputError(context + ": point times span " + std::to_string(*lo) + " .. " + std::to_string(*hi) +
+                     " s around the header stamp; not one scan (wrong --time-field or unit?)");
   }
 }
 
@@ -144,7 +158,13 @@ LidarScan cloud_to_scan(const PointCloud2Msg& c, const std::string& time_field, 
       const double z = read_value(p + fz->offset, fz->datatype, be);
       const double tv = read_value(p + ft->offset, ft->datatype, be);
       const double off = conv->absolute ? tv - stamp_s : tv * conv->scale_s;
-      if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z) || !std::isfinite(off)) {
+      LidarPoint pt;
+      pt.x = static_cast<float>(x);  // a float64 beyond float range becomes inf: counted below
+      pt.y = static_cast<float>(y);
+      pt.z = static_cast<float>(z);
+      if (fi) pt.intensity = static_cast<float>(read_value(p + fi->offset, fi->datatype, be));
+      if (!std::isfinite(pt.x) || !std::isfinite(pt.y) || !std::isfinite(pt.z) || !std::isfinite(pt.intensity) ||
+          !std::isfinite(off)) {
         ++counts.nan_points;
         continue;
       }
@@ -152,11 +172,6 @@ LidarScan cloud_to_scan(const PointCloud2Msg& c, const std::string& time_field, 
         ++counts.zero_points;
         continue;
       }
-      LidarPoint pt;
-      pt.x = static_cast<float>(x);
-      pt.y = static_cast<float>(y);
-      pt.z = static_cast<float>(z);
-      if (fi) pt.intensity = static_cast<float>(read_value(p + fi->offset, fi->datatype, be));
       if (fr) {
         const double ring = read_value(p + fr->offset, fr->datatype, be);
         pt.ring = ring >= 0 && ring <= 65535 ? static_cast<std::uint16_t>(ring) : 0;
@@ -165,6 +180,7 @@ LidarScan cloud_to_scan(const PointCloud2Msg& c, const std::string& time_field, 
       offsets.push_back(off);
     }
   }
+  check_times(offsets, context);
   counts.kept += pts.size();
   return finish(c.stamp_ns, pts, offsets);
 }

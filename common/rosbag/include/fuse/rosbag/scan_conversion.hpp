@@ -9,8 +9,9 @@
 // x, y, z are required; intensity comes from "intensity" (else "reflectivity"), the ring from
 // "ring" (else "line"). point_step, row_step, height/width, is_bigendian and every field's
 // datatype and extent are checked against the data; a cloud that cannot be read throws
-// fuse::io::InputError. Points with a NaN/inf coordinate or time and points at the origin
-// (drivers' "no return") are dropped and counted.
+// fuse::io::InputError, as does a cloud whose point times span more than 10 s or lie more than
+// an hour from the header stamp (a wrong time field or unit). Points with a NaN/inf coordinate,
+// intensity or time and points at the origin (drivers' "no return") are dropped and counted.
 #pragma once
 
 #include <cstdint>
