@@ -124,6 +124,24 @@ TEST(PcapReader, RecordsCutBySnaplenAreCounted) {
   EXPECT_EQ(r.skipped().at(pcap::skip::kCutBySnaplen), 1u);
 }
 
+TEST(PcapReader, EmptyFragmentsAreHarmless) {
+  // Found by fuzzing: an IPv4 fragment with no payload (total length = header) at offset 0.
+  tp::Writer w({});
+  std::vector<std::uint8_t> frame(12, 0);
+  frame.push_back(0x08);
+  frame.push_back(0x00);
+  const std::uint8_t ip[20] = {0x45, 0, 0, 20, 0, 9, 0x20, 0, 64, 17, 0, 0, 10, 0, 0, 2, 10, 0, 0, 1};
+  frame.insert(frame.end(), ip, ip + 20);
+  w.record(1.0, frame);
+  w.udp(1.1, 1, 2, pattern(8, 0));
+  pcap::PcapReader r = open(w.bytes());
+  pcap::UdpDatagram d;
+  ASSERT_TRUE(r.next(d));
+  EXPECT_EQ(d.payload, pattern(8, 0));
+  EXPECT_FALSE(r.next(d));
+  EXPECT_EQ(r.skipped().at(pcap::skip::kIncompleteFragments), 1u);
+}
+
 struct BadFile {
   const char* name;
   std::vector<std::uint8_t> (*make)();

@@ -253,7 +253,7 @@ bool PcapReader::handle_ipv4(const std::uint8_t* ip, std::size_t size, double t,
     }
   }
   if (f.data.size() < end) f.data.resize(end);
-  std::memcpy(f.data.data() + frag_off, body, body_size);
+  if (body_size > 0) std::memcpy(f.data.data() + frag_off, body, body_size);  // an empty fragment adds nothing
   f.have.emplace_back(frag_off, end);
   if (f.total == 0) return false;
   // Covered? Sort the ranges and walk them from 0.
