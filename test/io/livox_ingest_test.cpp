@@ -17,6 +17,7 @@
 #include <mutex>
 #include <thread>
 
+#include "fuse/io/pcap_reader.hpp"
 #include "fuse/launch/process.hpp"
 #include "fuse/transport/msg_traits.hpp"
 #include "fuse/transport/qos.hpp"
@@ -196,6 +197,74 @@ TEST(OusterIngest, PcapCaptureReachesTheDdsTopics) {
     EXPECT_NEAR(imu[i].t() - imu[i - 1].t(), 0.01, 0.002);
   }
   EXPECT_NE(read_text(log).find("replay done: 30 IMU samples, 3 scans"), std::string::npos) << read_text(log);
+}
+
+// fuse-ingest --ouster-udp: the 3-frame OS-1-128 capture's packets sent over loopback to the
+// ports given on the command line (overriding the metadata's 7502/7503) reach the topics.
+TEST(OusterIngest, LiveUdpPacketsReachTheDdsTopics) {
+  const std::string data = std::string(FUSE_SHARED_DATA) + "/ouster/";
+  const std::string pcap = data + "OS-1-128_v2.3.0_1024x10_lb_n3.pcap";
+  if (!std::filesystem::exists(pcap)) GTEST_SKIP() << "shared test data not found at " << data << " (FUSE_SHARED_DATA)";
+  const std::string out = std::string(FUSE_TEST_OUT) + "/ouster_udp_ingest";
+  std::filesystem::create_directories(out);
+  const std::string log = out + "/fuse-ingest.log";
+  std::filesystem::remove(log);
+  const std::uint16_t lidar_port = free_port(), imu_port = free_port();
+  transport::TransportConfig tc;
+  tc.domain_id = kOusterDomain;
+  auto participant = transport::make_participant(tc, "test-ouster-udp-ingest");
+  std::mutex mutex;
+  std::vector<fuse_msgs::ImuSample> imu;
+  std::vector<fuse_msgs::LidarScan> scans;
+  transport::Subscriber<fuse_msgs::ImuSample> imu_sub(*participant, transport::topics::kImu, [&](const auto& m) {
+    std::lock_guard<std::mutex> lock(mutex);
+    imu.push_back(m);
+  });
+  transport::Subscriber<fuse_msgs::LidarScan> scan_sub(*participant, transport::topics::kLidarScan, [&](const auto& m) {
+    std::lock_guard<std::mutex> lock(mutex);
+    scans.push_back(m);
+  });
+  auto ingest = launch::Process::spawn(
+      {std::string(FUSE_BIN_DIR) + "/fuse-ingest", "--config", std::string(FUSE_CONFIG_DIR) + "/spinning.yaml", "--set",
+       "transport.domain_id=" + std::to_string(kOusterDomain), "--set", "ingest.start_wait_s=0.5", "--ouster-udp",
+       "127.0.0.1:" + std::to_string(lidar_port) + ":" + std::to_string(imu_port), "--ouster-metadata",
+       data + "OS-1-128_v2.3.0_1024x10.json"},
+      log);
+  const auto deadline = std::chrono::steady_clock::now() + 30s;
+  while (std::chrono::steady_clock::now() < deadline &&
+         (read_text(log).find("listening for Ouster") == std::string::npos || imu_sub.matched() == 0 ||
+          scan_sub.matched() == 0)) {
+    std::this_thread::sleep_for(50ms);
+  }
+  ASSERT_GT(scan_sub.matched(), 0u) << read_text(log);
+  std::this_thread::sleep_for(1s);  // past its start wait
+
+  const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
+  io::pcap::PcapReader reader(pcap);
+  io::pcap::UdpDatagram d;
+  while (reader.next(d)) {
+    send_to(fd, d.dst_port == 7502 ? lidar_port : imu_port, d.payload);
+    std::this_thread::sleep_for(1ms);  // paced like the sensor (~0.3 s for the capture)
+  }
+  ::close(fd);
+  const auto wait_end = std::chrono::steady_clock::now() + 20s;
+  while (std::chrono::steady_clock::now() < wait_end) {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      // The last events are released once the input has been quiet for 50 ms.
+      if (imu.size() >= 30 && scans.size() >= 3) break;
+    }
+    std::this_thread::sleep_for(20ms);
+  }
+  const auto t = ingest.terminate(10s);
+  EXPECT_FALSE(t.escalated) << "SIGTERM stops it while it waits for packets";
+  EXPECT_EQ(t.status.code, 0) << read_text(log);
+  std::lock_guard<std::mutex> lock(mutex);
+  EXPECT_EQ(imu.size(), 30u) << read_text(log);
+  ASSERT_EQ(scans.size(), 3u) << read_text(log);
+  for (std::size_t k = 0; k < 3; ++k) {
+    EXPECT_NEAR(scans[k].end_time() - scans[k].start_time(), 0.0999, 0.001);
+  }
 }
 
 }  // namespace

@@ -101,6 +101,7 @@ void OusterUdpSource::receive_loop() {
   pollfd fds[2] = {{lidar_fd_, POLLIN, 0}, {imu_fd_, POLLIN, 0}};
   const std::uint16_t ports[2] = {lidar_port_, imu_port_};
   auto last_packet = std::chrono::steady_clock::now();
+  bool held_flushed = true;
   while (!stop_ && !(config_.should_stop && config_.should_stop())) {
     const int n = ::poll(fds, 2, kPollTimeoutMs);  // a negative fd is ignored by poll
     if (n < 0 && errno != EINTR) {
@@ -131,7 +132,17 @@ void OusterUdpSource::receive_loop() {
       }
     }
     const auto now = std::chrono::steady_clock::now();
-    if (any) last_packet = now;
+    if (any) {
+      last_packet = now;
+      held_flushed = false;
+    } else if (!held_flushed && std::chrono::duration<double>(now - last_packet).count() > kReorderWindowS) {
+      // Quiet for the reorder window: what is held cannot be overtaken any more, publish it.
+      std::lock_guard<std::mutex> lock(mutex_);
+      const std::size_t before = queue_.size();
+      stream_->release_held(queue_);
+      if (queue_.size() != before) cv_.notify_one();
+      held_flushed = true;
+    }
     if (config_.idle_timeout_s > 0.0 && std::chrono::duration<double>(now - last_packet).count() > config_.idle_timeout_s) {
       break;
     }

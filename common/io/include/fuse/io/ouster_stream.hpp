@@ -48,6 +48,8 @@ class Stream {
               std::deque<SensorEvent>& out);
   /// End of input: the frame in progress is reported and every held event is released.
   void finish(std::deque<SensorEvent>& out);
+  /// Releases every held event now (a live input that went quiet: nothing older will come).
+  void release_held(std::deque<SensorEvent>& out) { release(1e300, out); }
 
   const Metadata& metadata() const { return meta_; }
   std::uint64_t lidar_packets() const { return lidar_packets_; }  ///< decoded as this sensor's

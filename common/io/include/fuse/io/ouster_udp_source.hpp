@@ -1,7 +1,9 @@
 // Live Ouster input: the sensor's lidar and IMU UDP packets (ports from the metadata, or set
 // here; one socket when both are the same port) read on a receiver thread and turned into
 // scans and IMU samples by an ouster::Stream (ouster_stream.hpp) with the sensor's metadata.
-// Events wait in a bounded queue for next(); what does not fit is counted. Malformed or
+// Events are released in time order once 50 ms of newer sensor time has arrived, or at once
+// when the input has been quiet for 50 ms; they wait in a bounded queue for next(); what does
+// not fit is counted. Malformed or
 // foreign packets are counted by reason and logged (rate-limited), never fatal. The stream
 // never ends on its own: stop(), the should_stop predicate or the idle timeout end it.
 #pragma once
