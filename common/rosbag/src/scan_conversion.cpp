@@ -84,7 +84,7 @@ LidarScan finish(std::uint64_t stamp_ns, std::vector<LidarPoint>& pts, const std
   }
   const auto [lo, hi] = std::minmax_element(offsets_s.begin(), offsets_s.end());
   scan.t_start = stamp_s + *lo;
-  scan.t_end = stamp_s + *hi;
+  scan.t_end = scan.t_start + (*hi - *lo);
   for (std::size_t i = 0; i < pts.size(); ++i) pts[i].t_rel = static_cast<float>(offsets_s[i] - *lo);
   scan.points = std::move(pts);
   return scan;
