@@ -3,6 +3,7 @@
 #include <set>
 
 #include "fuse/core/logging.hpp"
+#include "fuse/service/notify.hpp"
 #include "fuse/service/runtime.hpp"
 #include "ingest_service.hpp"
 
@@ -45,7 +46,10 @@ int main(int argc, char** argv) {
   try {
     auto participant = fuse::transport::make_participant(config.transport, "fuse-ingest");
     IngestService service(config, *participant, options);
-    return service.run();
+    notifier().ready("input open, endpoints created");  // does not wait for the pipeline
+    const int code = service.run();
+    notifier().stopping();
+    return code;
   } catch (const fuse::io::InputError& e) {
     log->error("cannot open input: {}", e.what());
     return 1;
