@@ -1,9 +1,12 @@
 // Estimator input validation (estimator.hpp/.cpp): bad IMU samples and scans are counted under
 // the names used in estimator.cpp and never crash the estimator.
 #include "fuse/estimation/estimator.hpp"
+#include "fuse/estimation/state_tracker.hpp"
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <functional>
 #include <limits>
 
 namespace fuse {
@@ -67,6 +70,50 @@ TEST(EstimatorIngest, DataGapIsFlaggedAndBridged) {
   EXPECT_EQ(counter(est, "imu_gap"), 1u);
   EXPECT_TRUE(est.query(after_gap).ok());  // the sample is still used
   EXPECT_LT(est.query(after_gap).x.v.norm(), 1e-6);
+}
+
+TEST(AgreedRate, IsTheSmallerRateWhenBothAgreeInSignElseZero) {
+  const Eigen::Vector3d w = agreed_rate(Eigen::Vector3d(0.5, -0.2, 0.3), Eigen::Vector3d(0.4, -0.6, -0.1));
+  EXPECT_DOUBLE_EQ(w.x(), 0.4);   // a steady turn that slows: the smaller rate
+  EXPECT_DOUBLE_EQ(w.y(), -0.2);  // same sign, negative
+  EXPECT_DOUBLE_EQ(w.z(), 0.0);   // opposite signs: an oscillation, no rate assumed
+  EXPECT_EQ(agreed_rate(Eigen::Vector3d::Zero(), Eigen::Vector3d(1, 1, 1)), Eigen::Vector3d::Zero());
+}
+
+/// Still IMU turning about z at rate w(t) (accelerometer reads gravity only).
+ImuSample turning_imu(double t, double rate) {
+  ImuSample s = still_imu(t);
+  s.gyro.z() = rate;
+  return s;
+}
+
+double yaw(const NavState& x) { return std::atan2(x.R(1, 0), x.R(0, 0)); }
+
+/// Yaw change the estimator coasts across a gap of `gap` s after feeding `rate(t)` for 2 s.
+double coasted_yaw(const std::function<double(double)>& rate, double gap) {
+  Estimator est{EstimatorConfig{}};
+  double t = initialise(est);
+  for (; t < kInitSamples * kImuDt + 2.0; t += kImuDt) est.ingest(turning_imu(t, rate(t)));
+  const double before_t = t - kImuDt;
+  const double before = yaw(est.query(before_t).x);
+  est.ingest(turning_imu(before_t + gap, rate(before_t + gap)));
+  EXPECT_EQ(counter(est, "imu_gap"), 1u);
+  return yaw(est.query(before_t + gap).x) - before;
+}
+
+TEST(EstimatorIngest, AGapInASteadyTurnIsCoastedAtTheTurnRate) {
+  constexpr double kRate = 0.5, kGap = 0.6;  // rad/s, s
+  EXPECT_NEAR(coasted_yaw([](double) { return kRate; }, kGap), kRate * kGap, 0.01);
+}
+
+TEST(EstimatorIngest, AGapInASwayIsNotCoastedAtOneEndsRate) {
+  // Sway at 2 Hz, 0.4 rad/s peak; the gap is one period, so both ends read the same positive
+  // rate and the true yaw change across it is zero. Coasting at that end rate would turn by
+  // 0.4 × 0.5 · sin(phase); the mean over the window before the gap (two periods) is ~0.
+  constexpr double kPeak = 0.4, kPeriod = 0.5;
+  auto sway = [](double t) { return kPeak * std::cos(2.0 * M_PI * t / kPeriod); };
+  const double coasted = coasted_yaw(sway, kPeriod);
+  EXPECT_LT(std::abs(coasted), 0.02) << "coasted yaw change " << coasted << " rad across a full sway period";
 }
 
 TEST(EstimatorIngest, EmptyAndBadScansAreCounted) {

@@ -29,11 +29,25 @@ void InitialCovarianceConfig::load(ConfigNode& node) {
 void DivergenceConfig::load(ConfigNode& node) {
   node.get("max_position_std", max_position_std).get("max_scans_without_constraints", max_scans_without_constraints);
   node.get("max_imu_gap", max_imu_gap).get("gap_accel_std", gap_accel_std).get("gap_gyro_std", gap_gyro_std);
+  node.get("gap_rate_window", gap_rate_window);
+  node.check(std::isfinite(gap_rate_window) && gap_rate_window >= 0.0 && gap_rate_window <= 10.0, "gap_rate_window",
+             "must be in [0, 10] s");
   node.check(std::isfinite(gap_accel_std) && gap_accel_std >= 0.0, "gap_accel_std", "must be finite and >= 0");
   node.check(std::isfinite(gap_gyro_std) && gap_gyro_std >= 0.0, "gap_gyro_std", "must be finite and >= 0");
   node.check(max_position_std > 0.0, "max_position_std", "must be positive");
   node.check(max_scans_without_constraints >= 1, "max_scans_without_constraints", "must be >= 1");
   node.check(max_imu_gap > 0.0, "max_imu_gap", "must be positive");
+  node.finish();
+}
+
+void RecoveryConfig::load(ConfigNode& node) {
+  node.get("enabled", enabled).get("position_std", position_std).get("rotation_std", rotation_std);
+  node.get("max_iterations", max_iterations).get("reassociate_iterations", reassociate_iterations);
+  node.check(std::isfinite(position_std) && position_std > 0.0, "position_std", "must be positive and finite");
+  node.check(std::isfinite(rotation_std) && rotation_std > 0.0, "rotation_std", "must be positive and finite");
+  node.check(max_iterations >= 1 && max_iterations <= 50, "max_iterations", "must be in [1, 50]");
+  node.check(reassociate_iterations >= 1 && reassociate_iterations <= max_iterations, "reassociate_iterations",
+             "must be in [1, max_iterations]");
   node.finish();
 }
 
@@ -64,6 +78,7 @@ void EstimatorConfig::load(ConfigNode& node) {
   load_section(node, "map", map);
   load_section(node, "initial_covariance", initial_covariance);
   load_section(node, "divergence", divergence);
+  load_section(node, "recovery", recovery);
   node.finish();
 }
 

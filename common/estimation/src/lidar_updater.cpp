@@ -1,5 +1,6 @@
 #include "fuse/estimation/lidar_updater.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -13,17 +14,43 @@ using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
+
+UpdateConfig with_recovery_caps(UpdateConfig c, const RecoveryConfig& r) {
+  c.max_iterations = r.max_iterations;
+  c.nano.max_iterations = r.max_iterations;
+  return c;
+}
+
+AssociationConfig without_screening(AssociationConfig c) {
+  c.screening = false;
+  return c;
+}
 }  // namespace
 
 LidarUpdater::LidarUpdater(const EstimatorConfig& config)
     : config_(config),
       map_(make_spatial_index(config.index)),
       backend_(make_update_backend(config.update)),
+      recovery_backend_(make_update_backend(with_recovery_caps(config.update, config.recovery))),
       map_policy_(make_map_policy(config.map)),
       associator_(config.association),
+      recovery_associator_(without_screening(config.association)),
+      recovery_measurement_(config.measurement),
       voxel_size_(static_cast<float>(config.preprocess.voxel_size)),
       counters_(logger("estimator")) {
   config_.measurement.extrinsic_jacobian = config.estimate_extrinsic;
+  recovery_measurement_.extrinsic_jacobian = config.estimate_extrinsic;
+  recovery_measurement_.reassociate_iterations = config.recovery.reassociate_iterations;
+}
+
+bool LidarUpdater::needs_recovery(const StateCovariance& P) const {
+  if (!config_.recovery.enabled) return false;
+  // Largest σ of each block: the square root of the largest eigenvalue of its 3×3 covariance.
+  auto largest_std = [&P](int idx) {
+    const Eigen::Matrix3d block = P.block<3, 3>(idx, idx);
+    return std::sqrt(std::max(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(block, Eigen::EigenvaluesOnly).eigenvalues()(2), 0.0));
+  };
+  return largest_std(Idx::kPos) > config_.recovery.position_std || largest_std(Idx::kRot) > config_.recovery.rotation_std;
 }
 
 void LidarUpdater::set_map_mode(const std::string& mode) {
@@ -35,7 +62,8 @@ void LidarUpdater::set_map_mode(const std::string& mode) {
 
 UpdateResult LidarUpdater::update(MeasurementModel& model, StateHistory& history, double t) {
   StateQuery prior = history.query(t);
-  UpdateResult result = backend_->update(prior.x, prior.P, model);
+  UpdateBackend& backend = needs_recovery(prior.P) ? *recovery_backend_ : *backend_;
+  UpdateResult result = backend.update(prior.x, prior.P, model);
   if (result.updated) history.correct(t, prior.x, prior.P);
   return result;
 }
@@ -91,8 +119,14 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
   // 3. Associate + update at the scan end (the first scan only seeds the map).
   t_stage = Clock::now();
   NavState x = prior.x;
+  report.recovery = map_->size() > 0 && needs_recovery(prior.P);
+  if (report.recovery) {
+    counters_.count("recovery_scans", "uncertain prior at t=" + std::to_string(scan.t_end) +
+                                          " (data gap or restart): re-localising against the map");
+  }
   if (map_->size() > 0) {
-    PointToPlaneModel model(config_.measurement, points_L_, *map_, associator_, constraints_);
+    PointToPlaneModel model(report.recovery ? recovery_measurement_ : config_.measurement, points_L_, *map_,
+                            report.recovery ? recovery_associator_ : associator_, constraints_);
     const UpdateResult result = update(model, history, scan.t_end);
     x = history.query(scan.t_end).x;
     report.updated = result.updated;
@@ -120,9 +154,16 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
   for (std::size_t i = 0; i < points_L_.size(); ++i) points_W_[i] = R * points_L_[i] + t;
   // The association's nearest-neighbour distances are reused when it ran on this scan's points.
   const bool have_nearest = report.updated && constraints_.nearest_dist2.size() == points_W_.size();
-  const MapUpdateStats map_stats =
-      map_policy_->apply(points_W_, *map_, have_nearest ? &constraints_.nearest_dist2 : nullptr);
-  report.map_inserted = map_stats.inserted;
+  if (report.recovery && !report.converged) {
+    // Not re-localised yet: a misplaced scan in the map would pull the later ones towards it.
+    counters_.count("recovery_not_mapped", "re-localisation did not converge at t=" + std::to_string(scan.t_end) +
+                                               ": scan not added to the map");
+    points_W_.clear();  // nothing accepted to offer (last_world_points)
+  } else {
+    const MapUpdateStats map_stats =
+        map_policy_->apply(points_W_, *map_, have_nearest ? &constraints_.nearest_dist2 : nullptr);
+    report.map_inserted = map_stats.inserted;
+  }
   report.map_points = map_->size();
   report.ms_map = ms_since(t_stage);
   report.ms_total = ms_since(t0);

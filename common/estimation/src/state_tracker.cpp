@@ -60,20 +60,37 @@ void StateTracker::initialise(const NavState& x0_in, const ImuSample& imu) {
 
 void StateTracker::coast_across_gap(const ImuSample& imu) {
   // Nothing measured the motion during the gap: coast at constant velocity (the specific force
-  // that cancels gravity, f = R⊤(−g) + b_a) with the mean of the rotation rates at both ends,
-  // then take the new sample as usual, and grow the covariance by the unmodelled motion.
+  // that cancels gravity, f = R⊤(−g) + b_a) and, per axis, at the rotation rate that the motion
+  // before the gap (its mean rate over divergence.gap_rate_window) and the sample after it agree
+  // on; then take the new sample as usual, and grow the covariance by the unmodelled motion.
   constexpr double kLastStep = 0.001;  // s: the real sample closes the gap over the last millisecond
   const StateHistory::Entry& before = history_.newest();
   const double gap = imu.t - before.t;
+  Eigen::Vector3d mean_rate = Eigen::Vector3d::Zero();
+  const auto window = history_.entries_between(before.t - config_.divergence.gap_rate_window, before.t);
+  for (const StateHistory::Entry* e : window) mean_rate += e->gyro - e->x.bg;
+  if (!window.empty()) mean_rate /= static_cast<double>(window.size());
   ImuSample coast;
   coast.t = before.t;
-  coast.gyro = 0.5 * (before.gyro + imu.gyro);
+  coast.gyro = agreed_rate(mean_rate, imu.gyro - before.x.bg) + before.x.bg;
   coast.accel = before.x.R.transpose() * (-before.x.g) + before.x.ba;
   history_.add_imu(coast);  // same instant: replaces the held measurement
   coast.t = imu.t - kLastStep;
   history_.add_imu(coast);
   history_.add_imu(imu);
   history_.inflate_newest(gap_noise(gap));
+}
+
+Eigen::Vector3d agreed_rate(const Eigen::Vector3d& w0, const Eigen::Vector3d& w1) {
+  // minmod: a steady turn (both alike) keeps its rate; rates of opposite sign give none, and a
+  // turn that starts or ends in the gap gives the smaller. With w0 the mean over the motion before
+  // the gap, an oscillation (handheld sway, a legged gait) averages out instead of one end's peak
+  // rate being integrated over the whole gap (a 0.3 rad/s sway peak over 1 s is 17°).
+  Eigen::Vector3d w;
+  for (int i = 0; i < 3; ++i) {
+    w(i) = w0(i) * w1(i) <= 0.0 ? 0.0 : (std::abs(w0(i)) < std::abs(w1(i)) ? w0(i) : w1(i));
+  }
+  return w;
 }
 
 StateCovariance StateTracker::gap_noise(double dt) const {

@@ -58,6 +58,28 @@ struct DivergenceConfig {
   /// updates after the gap may pull the state back instead of trusting the coasted prediction.
   double gap_accel_std = 1.0;           ///< σ_a, m/s²
   double gap_gyro_std = 0.5;            ///< σ_ω, rad/s
+  /// s: the gap is coasted at the rotation rate that the mean rate over this window before it and
+  /// the first sample after it agree on (StateTracker, agreed_rate); one period of the slowest
+  /// oscillation expected (handheld sway, gait) averages it out.
+  double gap_rate_window = 1.0;
+  void load(ConfigNode& node);
+};
+
+/// Re-localisation when the prior no longer predicts the scan well: after a data gap (its covariance
+/// grown by the unmodelled motion), or a state restored or initialised without recent LiDAR. Such a
+/// prior is off by decimetres or degrees, so the residuals of correct matches are far beyond the
+/// normal screening gates (|r| ≤ max_residual, match quality), and the iterated update needs more
+/// than the usual few iterations and map searches to walk back into the map. For a scan whose
+/// prior pose σ exceeds a threshold, the update runs without residual screening and with the caps
+/// below; if it still does not converge, the scan is not offered to the map (a misplaced scan in
+/// the map would pull every later one towards it). Normal scans (prior σ of millimetres) never
+/// take this path.
+struct RecoveryConfig {
+  bool enabled = true;
+  double position_std = 0.05;       ///< m: largest position σ of the prior above which a scan is re-localised ...
+  double rotation_std = 0.05;       ///< rad: ... or largest rotation σ above which
+  int max_iterations = 20;          ///< update iterations of such a scan (iterated backends: ieskf, nano)
+  int reassociate_iterations = 15;  ///< iterations of it that may search the map again
   void load(ConfigNode& node);
 };
 
@@ -77,6 +99,7 @@ struct EstimatorConfig {
   MapPolicyConfig map;
   InitialCovarianceConfig initial_covariance;
   DivergenceConfig divergence;
+  RecoveryConfig recovery;
   /// Reads the `estimator` section of a config file (unknown keys are refused).
   void load(ConfigNode& node);
 };

@@ -36,6 +36,7 @@ struct ScanReport {
   std::size_t constraints = 0, rejected_no_neighbors = 0, rejected_not_planar = 0, rejected_screening = 0;
   int iterations = 0;
   bool converged = false;
+  bool recovery = false;  ///< the prior was uncertain: re-localised (estimator.recovery)
   double min_eig_translation = 0.0, min_eig_rotation = 0.0, min_gamma = 1.0, min_eig_ratio = 1.0;
   std::size_t map_points = 0, map_inserted = 0;
   double ms_deskew = 0.0, ms_association = 0.0, ms_update = 0.0, ms_map = 0.0, ms_total = 0.0;
@@ -50,9 +51,11 @@ class LidarUpdater {
   ScanReport process(const LidarScan& scan, StateHistory& history);
   /// Γ_k: posterior update at time t with a measurement model, correcting the history at t.
   UpdateResult update(MeasurementModel& model, StateHistory& history, double t);
+  /// True when the prior at a scan is uncertain enough to re-localise (estimator.recovery).
+  bool needs_recovery(const StateCovariance& P) const;
 
   /// World-frame points of the last processed scan at its posterior (the accepted observation
-  /// offered to the map) and the pose they were placed with.
+  /// offered to the map; empty when a re-localisation did not converge) and the pose they were placed with.
   const std::vector<Eigen::Vector3f>& last_world_points() const { return points_W_; }
   const Eigen::Isometry3d& last_T_world_lidar() const { return T_WL_; }
 
@@ -74,8 +77,11 @@ class LidarUpdater {
   EstimatorConfig config_;
   std::unique_ptr<SpatialIndex> map_;
   std::unique_ptr<UpdateBackend> backend_;
+  std::unique_ptr<UpdateBackend> recovery_backend_;  ///< the backend with estimator.recovery's caps
   std::unique_ptr<MapPolicy> map_policy_;
   Associator associator_;
+  Associator recovery_associator_;  ///< without residual screening
+  PointToPlaneModel::Config recovery_measurement_;
   VoxelFilter voxel_filter_;
   float voxel_size_;  ///< downsampling voxel in use (adapts to max_points)
   Deskewer deskewer_;

@@ -11,6 +11,11 @@
 
 namespace fuse {
 
+/// The rotation rate assumed across a data gap from the (bias-free) rates w0 before (the mean over
+/// a window) and w1 after it, per axis: the one of smaller magnitude when both have the same
+/// sign, else zero (minmod).
+Eigen::Vector3d agreed_rate(const Eigen::Vector3d& w0, const Eigen::Vector3d& w1);
+
 class StateTracker {
  public:
   explicit StateTracker(const EstimatorConfig& config);
@@ -31,7 +36,7 @@ class StateTracker {
 
  private:
   void initialise(const NavState& x0, const ImuSample& imu);
-  /// Propagates across a data gap up to the sample after it (constant velocity).
+  /// Propagates across a data gap up to the sample after it (constant velocity, agreed_rate).
   void coast_across_gap(const ImuSample& imu);
   /// Covariance of the motion nobody measured during a data gap of dt seconds.
   StateCovariance gap_noise(double dt) const;
