@@ -7,6 +7,7 @@
 #include "fuse/core/logging.hpp"
 #include "fuse/io/prefetch_source.hpp"
 #include "fuse/service/convert.hpp"
+#include "fuse/service/notify.hpp"
 #include "fuse/service/runtime.hpp"
 
 namespace fuse::service {
@@ -68,6 +69,7 @@ bool IngestService::wait_for_pipeline() {
       std::lock_guard<std::mutex> lock(mutex_);
       if (ready()) return true;
     }
+    notifier().watchdog();
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   return false;
@@ -130,6 +132,7 @@ int IngestService::run() {
   std::size_t skipped = 0;
   try {
     while (!stop_requested() && source_->next(ev)) {
+      notifier().watchdog();
       const double t = ev.arrival_time();
       if (!t0) t0 = t;
       if (live) {
@@ -162,15 +165,17 @@ int IngestService::run() {
         ++skipped;
         continue;
       }
-      if (wait > 0.0 && wait_for_stop(wait)) break;
+      if (wait > 0.0 && wait_for_stop_alive(wait)) break;
       publish(ev);
     }
     if (pending) wait_for_correction(pending_t, pending_sequence);
     if (!lockstep && !stop_requested()) wait_for_stop(0.5);  // let the last scan's answer come back
   } catch (const io::InputError& e) {
     log->error("input error: {}", e.what());
+    flush();  // what was published before the error still reaches its readers
     return 1;
   }
+  flush();
   if (skipped > 0) log->info("{} events skipped (before the resume point or behind the schedule)", skipped);
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -183,6 +188,17 @@ int IngestService::run() {
   for (const auto& [reason, n] : stats.rejected) log->warn("input refused: {} x{}", reason, n);
   log->info("replay done: {} IMU samples, {} scans", stats.imu_samples, stats.scans);
   return 0;
+}
+
+void IngestService::flush() {
+  const auto timeout = std::chrono::milliseconds(static_cast<long>(config_.ingest.flush_timeout_s * 1000.0));
+  const bool imu = imu_.wait_for_acknowledgments(timeout);
+  const bool scans = scans_.wait_for_acknowledgments(timeout);
+  if (!imu || !scans) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    counters_.count("flush_timeout", "not every matched reader acknowledged what was published within "
+                                     "ingest.flush_timeout_s: it may miss the last samples");
+  }
 }
 
 HealthSnapshot IngestService::health() {

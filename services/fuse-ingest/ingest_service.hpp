@@ -43,6 +43,8 @@ class IngestService {
   /// Lockstep: waits until fuse-update has answered the scan ending at t_end.
   void wait_for_correction(double t_end, std::uint64_t sequence);
   void publish(const io::SensorEvent& ev);
+  /// Waits (ingest.flush_timeout_s) for every matched reader to acknowledge what was published.
+  void flush();
   HealthSnapshot health();
 
   SystemConfig config_;

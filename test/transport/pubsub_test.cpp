@@ -7,7 +7,7 @@ namespace {
 
 class PubSub : public ::testing::TestWithParam<std::string> {
  protected:
-  /// Domain ids 11..15 (fastdds) and 21..25 (cyclonedds).
+  /// Domain ids 11..15, 17 (fastdds) and 21..25, 27 (cyclonedds).
   int domain(int offset) const { return (GetParam() == "fastdds" ? 11 : 21) + offset; }
   TransportConfig cfg(int offset) const { return config(GetParam(), domain(offset)); }
 };
@@ -128,6 +128,26 @@ TEST_P(PubSub, MalformedSampleIsCountedNotDelivered) {
   std::lock_guard<std::mutex> lock(mutex);
   ASSERT_EQ(reasons.size(), 1u);
   EXPECT_NE(reasons[0].find("CDR decoding failed"), std::string::npos) << reasons[0];
+}
+
+TEST_P(PubSub, WaitForAcknowledgmentsCoversEverythingWrittenBeforeTheWriterGoes) {
+  // A writer about to exit waits until its reader has every sample; then everything arrives
+  // although the writer (and its history, which repairs would need) is gone at once.
+  constexpr int kSamples = 500;
+  auto b = make_participant(cfg(6), "reader");
+  Inbox<fuse_msgs::ImuSample> in;
+  Subscriber<fuse_msgs::ImuSample> sub(*b, topics::kImu, std::ref(in));
+  {
+    auto a = make_participant(cfg(6), "exiting-writer");
+    Publisher<fuse_msgs::ImuSample> imu(*a, topics::kImu);
+    EXPECT_TRUE(imu.wait_for_acknowledgments(100ms)) << "nothing written, nothing to wait for";
+    ASSERT_TRUE(wait_until([&] { return imu.matched() == 1 && sub.matched() == 1; }));
+    for (int i = 0; i < kSamples; ++i) ASSERT_TRUE(imu.publish(make_imu(i)));
+    EXPECT_TRUE(imu.wait_for_acknowledgments(10s));
+  }
+  ASSERT_TRUE(in.wait_for(kSamples, 5s)) << in.size() << " of " << kSamples;
+  const auto got = in.messages();
+  for (int i = 0; i < kSamples; ++i) EXPECT_EQ(got[i].sequence_number(), static_cast<std::uint64_t>(i + 1));
 }
 
 INSTANTIATE_TEST_SUITE_P(Vendors, PubSub, ::testing::ValuesIn(vendors()),

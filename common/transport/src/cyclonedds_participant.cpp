@@ -471,6 +471,10 @@ class CycloneWriter : public RawWriter {
     return status.current_count;
   }
 
+  bool wait_for_acknowledgments(std::chrono::milliseconds timeout) override {
+    return dds_wait_for_acks(writer_, DDS_MSECS(timeout.count())) == DDS_RETCODE_OK;
+  }
+
  private:
   std::shared_ptr<Context> context_;
   std::string topic_;

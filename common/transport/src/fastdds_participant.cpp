@@ -287,6 +287,13 @@ class FastddsWriter : public RawWriter {
     return static_cast<std::size_t>(std::max(status.current_count, 0));
   }
 
+  bool wait_for_acknowledgments(std::chrono::milliseconds timeout) override {
+    const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(timeout).count();
+    const eprosima::fastrtps::Duration_t max_wait(static_cast<int32_t>(ns / 1000000000),
+                                                  static_cast<uint32_t>(ns % 1000000000));
+    return writer_->wait_for_acknowledgments(max_wait) == ReturnCode_t::RETCODE_OK;
+  }
+
  private:
   std::shared_ptr<Context> context_;
   std::string topic_;

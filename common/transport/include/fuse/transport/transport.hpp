@@ -4,6 +4,7 @@
 // Publisher/Subscriber (typed.hpp) and the request/reply template (rpc.hpp) are built on it.
 #pragma once
 
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -56,6 +57,10 @@ class RawWriter {
   /// Publishes one serialised sample; false when the backend refused it (logged by the backend).
   virtual bool write(const Bytes& sample) = 0;
   virtual std::size_t matched_readers() const = 0;
+  /// Blocks until every matched reliable reader has acknowledged every sample written, or the
+  /// timeout passed; true when all were acknowledged. A publisher about to exit calls it so that
+  /// what it wrote is not lost with its history (a late-joined reader still catching up).
+  virtual bool wait_for_acknowledgments(std::chrono::milliseconds timeout) = 0;
 };
 
 class RawReader {

@@ -79,6 +79,8 @@ class Publisher {
   /// direct codec that writes the same CDR without building T (io::encode_scan).
   bool publish_serialized(const Bytes& sample) { return writer_->write(sample); }
   std::size_t matched() const { return writer_->matched_readers(); }
+  /// See RawWriter::wait_for_acknowledgments.
+  bool wait_for_acknowledgments(std::chrono::milliseconds timeout) { return writer_->wait_for_acknowledgments(timeout); }
 
  private:
   std::unique_ptr<RawWriter> writer_;

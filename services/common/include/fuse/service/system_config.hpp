@@ -21,6 +21,10 @@ struct IngestConfig {
   /// Events read ahead of the schedule on a reader thread (io::PrefetchSource), so that a slow
   /// read (an MCAP chunk being decompressed) does not delay publishing. 400 = 2 s of 200 Hz IMU.
   int prefetch_events = 400;
+  /// At the end (or on SIGTERM): wait at most this long for every matched reader to acknowledge
+  /// what was published, so that a reader still catching up (a recorder that joined late) does
+  /// not lose the last samples with the writers' history when the process exits.
+  double flush_timeout_s = 5.0;
   void load(ConfigNode& node);
 };
 
