@@ -16,5 +16,6 @@ SIM_SHORT=$OUT/sim-$SCENARIO-mid360-$SEED-${SHORT}s
 [ -f "$SIM_SHORT/recording.mcap" ] || ./build/bin/fuse-sim --scenario "$SCENARIO" --seed "$SEED" --duration "$SHORT" \
   --out "$SIM_SHORT" > "$SIM_SHORT.log" 2>&1
 echo "== $SCENARIO seed $SEED ($SIM), real-time ingest restart on the first $SHORT s"
-FUSE_SYSTEM_TEST_DATA=$SIM FUSE_SYSTEM_TEST_SHORT_DATA=$SIM_SHORT ./build/bin/system_multiprocess_test \
+FUSE_SYSTEM_TEST_DATA=$SIM FUSE_SYSTEM_TEST_SHORT_DATA=$SIM_SHORT FUSE_SYSTEM_TEST_REPLAY_TIMEOUT_S=3600 \
+  ./build/bin/system_multiprocess_test \
   2>&1 | grep -E '^\[ |Failure|Expected|actual|Which'

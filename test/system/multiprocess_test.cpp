@@ -18,6 +18,7 @@
 #include <fstream>
 #include <map>
 #include <mutex>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -80,6 +81,11 @@ double ate(const std::string& data, const std::vector<StampedPose>& estimate) {
   return eval::evaluate(eval::read_tum(data + "/groundtruth.tum"), estimate, ec).ate.rmse;
 }
 
+/// A replay of the 60 s recording takes ~10 s in lockstep and 60 s in real time; this bound stays
+/// below the CTest timeout (300 s) so that a hang is reported with the services' state. Longer
+/// scenarios (bench/system_restarts.sh) set FUSE_SYSTEM_TEST_REPLAY_TIMEOUT_S.
+const std::chrono::seconds kReplayTimeout{std::atoi(data_dir("FUSE_SYSTEM_TEST_REPLAY_TIMEOUT_S", "200").c_str())};
+
 /// The four services of one run, started one by one so that a test can kill and restart each.
 class Pipeline {
  public:
@@ -113,10 +119,37 @@ class Pipeline {
     procs_.at(service).signal(SIGKILL);
     procs_.at(service).wait_for(5s);
   }
-  /// Waits for fuse-ingest to finish; its exit code (-1 on timeout).
+  /// Waits for fuse-ingest to finish; its exit code (-1 on timeout, after adding a failure with
+  /// what every service was doing: the end of its log and, where gdb is installed, its threads).
   int wait_ingest(std::chrono::seconds timeout) {
     auto status = procs_.at("fuse-ingest").wait_for(timeout);
+    if (!status) ADD_FAILURE() << "fuse-ingest still running after " << timeout.count() << " s\n" << diagnose();
     return status && !status->signaled ? status->code : -1;
+  }
+  /// The last lines of each service's newest log and, for the running ones, their stacks.
+  std::string diagnose() {
+    std::string out;
+    for (auto& [service, proc] : procs_) {
+      const std::string log_text = log(service, starts_[service]);
+      std::vector<std::string> lines;
+      std::stringstream ss(log_text);
+      for (std::string l; std::getline(ss, l);) lines.push_back(l);
+      out += "---- " + service + " (log " + std::to_string(starts_[service]) + ", " +
+             (proc.is_running() ? "running" : "exited") + ")\n";
+      for (std::size_t i = lines.size() > 30 ? lines.size() - 30 : 0; i < lines.size(); ++i) out += lines[i] + "\n";
+      if (proc.is_running() && fs::exists("/usr/bin/gdb")) {
+        const std::string stacks = dir_ + "/logs/" + service + ".stacks";
+        const std::string cmd = "timeout 60 /usr/bin/gdb -batch -p " + std::to_string(proc.pid()) +
+                                " -ex 'thread apply all bt 12' > " + stacks + " 2>&1";
+        if (std::system(cmd.c_str()) == 0) {
+          std::stringstream st(read_file(stacks));
+          for (std::string l; std::getline(st, l);) {
+            if (l.rfind("Thread ", 0) == 0 || l.rfind('#', 0) == 0) out += l.substr(0, 200) + "\n";
+          }
+        }
+      }
+    }
+    return out;
   }
   /// SIGTERM to every running service; true when each exited with 0.
   bool stop_all() {
@@ -198,7 +231,7 @@ class MultiProcess : public ::testing::Test {
       EXPECT_TRUE(p.wait_for_lines(at, 60s)) << "the replay did not reach " << at << " scans";
       during();
     }
-    EXPECT_EQ(p.wait_ingest(3600s), 0) << p.log("fuse-ingest", 1);
+    EXPECT_EQ(p.wait_ingest(kReplayTimeout), 0) << p.log("fuse-ingest", 1);
     EXPECT_TRUE(p.stop_all());
     return eval::read_tum(p.trajectory());
   }
@@ -234,7 +267,7 @@ TEST_F(MultiProcess, ServicesOnDifferentVendorsWorkTogether) {
   p.start("fuse-state", kData, {"--set", "transport.vendor=cyclonedds"});
   p.start("fuse-update");
   p.start("fuse-ingest", kData, {"--mode", "lockstep"});
-  EXPECT_EQ(p.wait_ingest(3600s), 0) << p.log("fuse-ingest", 1);
+  EXPECT_EQ(p.wait_ingest(kReplayTimeout), 0) << p.log("fuse-ingest", 1);
   EXPECT_TRUE(p.stop_all());
   std::size_t common = 0;
   EXPECT_LE(max_difference(single_->trajectory, eval::read_tum(p.trajectory()), &common), 1e-3);
@@ -303,7 +336,7 @@ TEST_F(MultiProcess, IngestKilledInRealTimeIsADataGapTheEstimatorSurvives) {
   p.kill("fuse-ingest");
   std::this_thread::sleep_for(500ms);
   p.start("fuse-ingest", kShortData, realtime);
-  EXPECT_EQ(p.wait_ingest(3600s), 0) << p.log("fuse-ingest", 2);
+  EXPECT_EQ(p.wait_ingest(kReplayTimeout), 0) << p.log("fuse-ingest", 2);
   EXPECT_TRUE(p.stop_all());
   // fuse-state flagged the gap, and the estimate went on to the end of the recording.
   EXPECT_NE(p.log("fuse-state", 1).find("imu_gap"), std::string::npos) << p.log("fuse-state", 1);
