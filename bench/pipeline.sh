@@ -8,9 +8,9 @@
 #                BENCH_ARGS (extra fuse-bench-pipeline options for the real-time runs, e.g.
 #                --observe-scan for the scan's own hop, which adds a second scan reader),
 #                SETS (space-separated key=value config overrides for every run, e.g.
-#                "transport.shared_memory=true"), UPDATE_NICE (niceness of fuse-update in the
-#                real-time runs, default 0: as deploy/ sets it, the LiDAR update is throughput work
-#                and yields the CPU to the state/query path)
+#                "transport.shared_memory=true"), UPDATE_NICE / STATE_NICE / CLIENT_NICE (niceness
+#                of fuse-update, fuse-state and the bench client in the real-time runs, default 0;
+#                negative values need root)
 #
 # 1. Simulates a corridor recording of DURATION_S (cached under out/bench/).
 # 2. fuse-run RUN_REPEATS times: per-scan time (mean / p95) and wall time, scans/s.
@@ -69,6 +69,8 @@ echo "recording: $REC"
 echo "vendor: $VENDOR"
 echo "overrides: ${SETS:-none}"
 echo "update_nice: ${UPDATE_NICE:-0}"
+echo "state_nice: ${STATE_NICE:-0}"
+echo "client_nice: ${CLIENT_NICE:-0}"
 
 # ---- 2. single process -----------------------------------------------------------------------
 for i in $(seq "$RUN_REPEATS"); do
@@ -104,13 +106,13 @@ for i in $(seq "$RT_REPEATS"); do
   S=("${COMMON[@]}" --set "transport.domain_id=$DOMAIN")
   "$BIN/fuse-map" "${S[@]}" --map-dir "$d/map" > "$d/logs/fuse-map.log" 2>&1 &
   m=$!
-  "$BIN/fuse-state" "${S[@]}" --trajectory "$d/trajectory.tum" --calibration-from "$REC" > "$d/logs/fuse-state.log" 2>&1 &
+  nice -n "${STATE_NICE:-0}" "$BIN/fuse-state" "${S[@]}" --trajectory "$d/trajectory.tum" --calibration-from "$REC" > "$d/logs/fuse-state.log" 2>&1 &
   s=$!
   nice -n "${UPDATE_NICE:-0}" "$BIN/fuse-update" "${S[@]}" > "$d/logs/fuse-update.log" 2>&1 &
   u=$!
   PIDS=("$m" "$s" "$u")
   START=$(awk -v t="$(now)" -v l="$LEAD_S" 'BEGIN{printf "%.6f", t+l}')
-  "$BIN/fuse-bench-pipeline" "${S[@]}" --input "$REC" --start-wall "$START" --rate 1 --csv "$d/bench" ${BENCH_ARGS:-} > "$d/bench.txt" 2> "$d/logs/bench.log" &
+  nice -n "${CLIENT_NICE:-0}" "$BIN/fuse-bench-pipeline" "${S[@]}" --input "$REC" --start-wall "$START" --rate 1 --csv "$d/bench" ${BENCH_ARGS:-} > "$d/bench.txt" 2> "$d/logs/bench.log" &
   bp=$!
   PIDS+=("$bp")
   "$BIN/fuse-ingest" "${S[@]}" --input "$REC" --mode realtime --rate 1 --start-wall "$START" > "$d/logs/fuse-ingest.log" 2>&1 || true

@@ -24,7 +24,7 @@
 //     API) against fuse-state's `query` RPC, called at --query-hz (1 kHz) alternately as
 //     latest() and at(t) for a recent t (the data time that is "now" on the schedule minus
 //     --query-lag-ms). Measured with steady_clock around the blocking call: request
-//     serialisation, DDS write, the server's queue and worker thread, fuse-state's mutex (held
+//     serialisation, DDS write, fuse-state's receive thread (it answers inline), its mutex (held
 //     also while it propagates IMU and re-propagates after a correction), the history query,
 //     the reply's way back and the client's wake-up. A call that gets no reply within
 //     --query-deadline-ms counts as an error (unavailable), as does any non-ok reply. The
