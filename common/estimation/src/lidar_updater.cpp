@@ -48,9 +48,11 @@ bool LidarUpdater::needs_recovery(const StateCovariance& P) const {
   // Largest σ of each block: the square root of the largest eigenvalue of its 3×3 covariance.
   auto largest_std = [&P](int idx) {
     const Eigen::Matrix3d block = P.block<3, 3>(idx, idx);
-    return std::sqrt(std::max(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(block, Eigen::EigenvaluesOnly).eigenvalues()(2), 0.0));
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(block, Eigen::EigenvaluesOnly);
+    return std::sqrt(std::max(es.eigenvalues()(2), 0.0));
   };
-  return largest_std(Idx::kPos) > config_.recovery.position_std || largest_std(Idx::kRot) > config_.recovery.rotation_std;
+  return largest_std(Idx::kPos) > config_.recovery.position_std ||
+         largest_std(Idx::kRot) > config_.recovery.rotation_std;
 }
 
 void LidarUpdater::set_map_mode(const std::string& mode) {
