@@ -11,6 +11,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <string>
 #include <unistd.h>
@@ -37,6 +38,26 @@ struct Gap {
 
 void PrintTo(const Gap& g, std::ostream* os) { *os << "gap of " << g.length << " s after t=" << g.start; }
 
+/// Copies a CSV file with its header line, keeping the rows for which keep(row) is true.
+void copy_rows(const std::string& from, const fs::path& to, const std::function<bool(const std::string&)>& keep) {
+  std::ifstream in(from);
+  std::ofstream out(to);
+  std::string line;
+  std::getline(in, line);
+  out << line << '\n';
+  while (std::getline(in, line)) {
+    if (keep(line)) out << line << '\n';
+  }
+}
+
+/// The comma-separated field `i` of a row, as a number.
+double field(const std::string& row, int i) {
+  std::stringstream ss(row);
+  std::string f;
+  for (int k = 0; k <= i; ++k) std::getline(ss, f, ',');
+  return std::stod(f);
+}
+
 /// A copy of the sequence with the IMU samples and the scans of (start, start + length] removed
 /// (scans are shared through a link to the original raw/ folder).
 fs::path sequence_with_gap(const Gap& gap, const std::string& name) {
@@ -46,32 +67,12 @@ fs::path sequence_with_gap(const Gap& gap, const std::string& name) {
   fs::copy_file(kSeqdir + "/calib.yaml", dir / "calib.yaml");
   fs::create_directory_symlink(fs::absolute(kSeqdir + "/raw"), dir / "raw");
   const double end = gap.start + gap.length;
-  {
-    std::ifstream in(kSeqdir + "/imu.csv");
-    std::ofstream out(dir / "imu.csv");
-    std::string line;
-    std::getline(in, line);
-    out << line << '\n';
-    while (std::getline(in, line)) {
-      const double t = std::stod(line.substr(0, line.find(','))) * 1e-9;  // ns
-      if (t <= gap.start || t > end) out << line << '\n';
-    }
-  }
-  {
-    std::ifstream in(kSeqdir + "/scans.csv");
-    std::ofstream out(dir / "scans.csv");
-    std::string line;
-    std::getline(in, line);
-    out << line << '\n';
-    while (std::getline(in, line)) {
-      std::stringstream ss(line);
-      std::string idx, t0, t1;
-      std::getline(ss, idx, ',');
-      std::getline(ss, t0, ',');
-      std::getline(ss, t1, ',');
-      if (std::stod(t1) <= gap.start || std::stod(t0) >= end) out << line << '\n';
-    }
-  }
+  copy_rows(kSeqdir + "/imu.csv", dir / "imu.csv", [&](const std::string& row) {
+    const double t = field(row, 0) * 1e-9;  // ns
+    return t <= gap.start || t > end;
+  });
+  copy_rows(kSeqdir + "/scans.csv", dir / "scans.csv",  // idx, t_start, t_end
+            [&](const std::string& row) { return field(row, 2) <= gap.start || field(row, 1) >= end; });
   return dir;
 }
 
