@@ -58,11 +58,12 @@ bool IngestService::wait_for_pipeline() {
   // fuse-state must be past its recovery wait and fuse-update's replica synchronised, or the
   // first scans would be skipped for reasons that have nothing to do with the data.
   const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(config_.ingest.start_wait_s);
-  auto ready = [this] {
+  const std::size_t readers = 1 + static_cast<std::size_t>(config_.ingest.extra_readers);
+  auto ready = [this, readers] {
     auto s = service_states_.find("fuse-state");
     auto u = service_states_.find("fuse-update");
     return s != service_states_.end() && s->second != "starting" && u != service_states_.end() &&
-           u->second != "starting" && imu_.matched() > 0 && scans_.matched() > 0;
+           u->second != "starting" && imu_.matched() >= readers && scans_.matched() >= readers;
   };
   while (std::chrono::steady_clock::now() < end && !stop_requested()) {
     {

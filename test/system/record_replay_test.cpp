@@ -173,11 +173,14 @@ class RecorderProcess {
 };
 
 /// Runs fuse-launch lockstep on `input`; its exit code.
-int lockstep(const std::string& input, const std::string& out, int domain) {
+/// extra_readers: readers of the IMU and scan topics besides the pipeline's (a recorder) that the
+/// replay waits for, so that they get every sample.
+int lockstep(const std::string& input, const std::string& out, int domain, int extra_readers = 0) {
   fs::remove_all(out);
   fs::create_directories(out);
   auto p = Process::spawn({kBin + "/fuse-launch", "--config", kConfig, "--input", input, "--mode", "lockstep", "--out", out,
-                           "--domain", std::to_string(domain), "--bin-dir", kBin},
+                           "--domain", std::to_string(domain), "--bin-dir", kBin, "--set",
+                           "ingest.extra_readers=" + std::to_string(extra_readers)},
                           out + "/fuse-launch.log");
   const auto status = p.wait_for(600s);
   return status && !status->signaled ? status->code : -1;
@@ -256,7 +259,7 @@ TEST(RecordReplay, RecordedLockstepPipelineReplaysToTheSameTrajectory) {
   ASSERT_TRUE(recorder.wait_ready()) << recorder.log();
 
   const std::string first = kOut + "/record_replay/first", second = kOut + "/record_replay/second";
-  ASSERT_EQ(lockstep(kData + "/recording.mcap", first, kDomainRecord), 0) << read_text(first + "/fuse-launch.log");
+  ASSERT_EQ(lockstep(kData + "/recording.mcap", first, kDomainRecord, 1), 0) << read_text(first + "/fuse-launch.log");
   std::this_thread::sleep_for(kDeliveryGrace);
   ASSERT_EQ(recorder.stop(SIGINT), 0) << recorder.log();
   const Summary summary = recorder.summary();

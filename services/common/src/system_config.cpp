@@ -6,13 +6,15 @@ namespace fuse::service {
 
 void IngestConfig::load(ConfigNode& node) {
   node.get("mode", mode).get("rate", rate).get("lockstep_timeout_s", lockstep_timeout_s).get("start_wait_s", start_wait_s)
-      .get("prefetch_events", prefetch_events).get("flush_timeout_s", flush_timeout_s);
+      .get("prefetch_events", prefetch_events).get("flush_timeout_s", flush_timeout_s)
+      .get("extra_readers", extra_readers);
   node.check(mode == "lockstep" || mode == "realtime", "mode", "must be lockstep or realtime");
   node.check(std::isfinite(rate) && rate > 0.0 && rate <= 100.0, "rate", "must be in (0, 100]");
   node.check(lockstep_timeout_s > 0.0 && lockstep_timeout_s <= 60.0, "lockstep_timeout_s", "must be in (0, 60] s");
   node.check(start_wait_s >= 0.0 && start_wait_s <= 120.0, "start_wait_s", "must be in [0, 120] s");
   node.check(prefetch_events >= 1 && prefetch_events <= 100000, "prefetch_events", "must be in [1, 100000]");
   node.check(flush_timeout_s >= 0.0 && flush_timeout_s <= 60.0, "flush_timeout_s", "must be in [0, 60] s");
+  node.check(extra_readers >= 0 && extra_readers <= 64, "extra_readers", "must be in [0, 64]");
   node.finish();
 }
 

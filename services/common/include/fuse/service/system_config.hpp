@@ -25,6 +25,9 @@ struct IngestConfig {
   /// what was published, so that a reader still catching up (a recorder that joined late) does
   /// not lose the last samples with the writers' history when the process exits.
   double flush_timeout_s = 5.0;
+  /// Readers of the IMU and scan topics beyond fuse-state's and fuse-update's (a recorder) that
+  /// must be matched before the replay starts; a reader matched later misses the first samples.
+  int extra_readers = 0;
   void load(ConfigNode& node);
 };
 
