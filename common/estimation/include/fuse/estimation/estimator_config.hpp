@@ -86,7 +86,7 @@ struct RecoveryConfig {
 struct EstimatorConfig {
   double gravity_magnitude = 9.81;
   bool estimate_extrinsic = false;
-  bool estimate_gravity = false;
+  bool estimate_gravity = true;   ///< gravity direction in the map frame (2-D, on S²); false: fixed at initialisation
   Eigen::Isometry3d T_imu_lidar = Eigen::Isometry3d::Identity();
   StaticInitConfig init;
   ImuNoiseConfig imu;
