@@ -10,7 +10,9 @@
 #                SETS (space-separated key=value config overrides for every run, e.g.
 #                "transport.shared_memory=true"), UPDATE_NICE / STATE_NICE / CLIENT_NICE (niceness
 #                of fuse-update, fuse-state and the bench client in the real-time runs, default 0;
-#                negative values need root)
+#                negative values need root), STATE_RT / CLIENT_RT (SCHED_FIFO priority 1-99 for
+#                fuse-state and the bench client instead of their niceness, as deploy/ can with
+#                CPUSchedulingPolicy=fifo; needs root or CAP_SYS_NICE)
 #
 # 1. Simulates a corridor recording of DURATION_S (cached under out/bench/).
 # 2. fuse-run RUN_REPEATS times: per-scan time (mean / p95) and wall time, scans/s.
@@ -53,6 +55,9 @@ cleanup() {
 trap cleanup EXIT
 
 now() { date +%s.%N; }
+# prio RT NICE: the command prefix that runs a process at SCHED_FIFO priority RT if RT is set,
+# else at niceness NICE
+prio() { if [ -n "$1" ]; then echo chrt -f "$1"; else echo nice -n "${2:-0}"; fi; }
 median() { sort -g | awk '{a[NR]=$1} END{if (NR==0) {print "nan"} else {print (NR%2 ? a[(NR+1)/2] : (a[NR/2]+a[NR/2+1])/2)}}'; }
 # value KEY FILE: the value of "KEY: value" in FILE
 value() { awk -v k="$1:" '$1==k {print $2; exit}' "$2"; }
@@ -71,6 +76,8 @@ echo "overrides: ${SETS:-none}"
 echo "update_nice: ${UPDATE_NICE:-0}"
 echo "state_nice: ${STATE_NICE:-0}"
 echo "client_nice: ${CLIENT_NICE:-0}"
+echo "state_rt: ${STATE_RT:-none}"
+echo "client_rt: ${CLIENT_RT:-none}"
 
 # ---- 2. single process -----------------------------------------------------------------------
 for i in $(seq "$RUN_REPEATS"); do
@@ -106,13 +113,13 @@ for i in $(seq "$RT_REPEATS"); do
   S=("${COMMON[@]}" --set "transport.domain_id=$DOMAIN")
   "$BIN/fuse-map" "${S[@]}" --map-dir "$d/map" > "$d/logs/fuse-map.log" 2>&1 &
   m=$!
-  nice -n "${STATE_NICE:-0}" "$BIN/fuse-state" "${S[@]}" --trajectory "$d/trajectory.tum" --calibration-from "$REC" > "$d/logs/fuse-state.log" 2>&1 &
+  $(prio "${STATE_RT:-}" "${STATE_NICE:-0}") "$BIN/fuse-state" "${S[@]}" --trajectory "$d/trajectory.tum" --calibration-from "$REC" > "$d/logs/fuse-state.log" 2>&1 &
   s=$!
   nice -n "${UPDATE_NICE:-0}" "$BIN/fuse-update" "${S[@]}" > "$d/logs/fuse-update.log" 2>&1 &
   u=$!
   PIDS=("$m" "$s" "$u")
   START=$(awk -v t="$(now)" -v l="$LEAD_S" 'BEGIN{printf "%.6f", t+l}')
-  nice -n "${CLIENT_NICE:-0}" "$BIN/fuse-bench-pipeline" "${S[@]}" --input "$REC" --start-wall "$START" --rate 1 --csv "$d/bench" ${BENCH_ARGS:-} > "$d/bench.txt" 2> "$d/logs/bench.log" &
+  $(prio "${CLIENT_RT:-}" "${CLIENT_NICE:-0}") "$BIN/fuse-bench-pipeline" "${S[@]}" --input "$REC" --start-wall "$START" --rate 1 --csv "$d/bench" ${BENCH_ARGS:-} > "$d/bench.txt" 2> "$d/logs/bench.log" &
   bp=$!
   PIDS+=("$bp")
   "$BIN/fuse-ingest" "${S[@]}" --input "$REC" --mode realtime --rate 1 --start-wall "$START" > "$d/logs/fuse-ingest.log" 2>&1 || true
