@@ -14,6 +14,7 @@
 #include <optional>
 
 #include "fuse/estimation/estimator.hpp"
+#include "fuse/eval/association.hpp"
 #include "fuse/eval/trajectory.hpp"
 #include "fuse/io/sensor_source.hpp"
 #include "runner.hpp"
@@ -29,13 +30,12 @@ double angle_between(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::atan2(a.cross(b).norm(), a.dot(b));
 }
 
-/// The true rotation at time t: the ground-truth sample nearest to it (truth is at the IMU rate).
+/// The true rotation at time t: the ground-truth sample nearest to it (truth is at the IMU rate),
+/// matched as the metrics match every estimate.
 Eigen::Matrix3d true_rotation(const eval::Trajectory& truth, double t) {
-  const StampedPose* best = &truth.front();
-  for (const StampedPose& p : truth) {
-    if (std::abs(p.t - t) < std::abs(best->t - t)) best = &p;
-  }
-  return best->q.toRotationMatrix();
+  StampedPose at;
+  at.t = t;
+  return eval::associate_by_time(truth, {at}).reference.front().q.toRotationMatrix();
 }
 
 struct GravityOutcome {
