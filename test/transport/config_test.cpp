@@ -58,8 +58,10 @@ TEST(TopicQosTable, EveryTopicAndRpcHasItsQos) {
     EXPECT_GT(topic_qos(t).depth, 0) << t;
   }
   for (const char* s : {services::kQuery, services::kHistory, services::kMapControl}) {
+    // The RPC layer re-sends and de-duplicates: the latency-critical calls skip DDS reliability.
+    const Reliability expected = s == services::kMapControl ? Reliability::kReliable : Reliability::kBestEffort;
     for (const std::string& t : {request_topic(s), reply_topic(s)}) {
-      EXPECT_EQ(topic_qos(t).reliability, Reliability::kReliable) << t;
+      EXPECT_EQ(topic_qos(t).reliability, expected) << t;
       EXPECT_EQ(topic_qos(t).durability, Durability::kVolatile) << t;
       EXPECT_EQ(topic_qos(t).depth, 32) << t;
     }
