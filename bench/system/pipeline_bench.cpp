@@ -4,7 +4,8 @@
 //   fuse-bench-pipeline --config FILE [--set key=value]... [--domain N] [--vendor V]
 //                       --start-wall UNIX_S [--rate R] (--input RECORDING | --t0 T --duration S)
 //                       [--warmup-s S] [--tail-s S] [--idle-query-s S] [--query-hz HZ] [--query-lag-ms MS]
-//                       [--query-deadline-ms MS] [--no-query] [--no-breakdown] [--observe-scan]
+//                       [--query-deadline-ms MS] [--query-slice-us US] [--no-query] [--no-breakdown]
+//                       [--observe-scan]
 //                       [--csv PREFIX]
 //   fuse-bench-pipeline --config FILE [--set key=value]... --lockstep-scans N [--idle-s S]
 //   fuse-bench-pipeline --codec --input RECORDING
@@ -30,6 +31,9 @@
 //     --query-deadline-ms counts as an error (unavailable), as does any non-ok reply. The
 //     calls are paced, not back to back: a call that overruns its 1 ms slot delays the next
 //     one (missed slots are not made up in a burst).
+//     The client's transport threads and the calling thread (the planner's) request a scheduler
+//     slice of --query-slice-us (100; 0 = the kernel's default), as fuse-state does with
+//     scheduling.state_slice_us: they then preempt a busy thread when they wake (Linux 6.12+).
 //     query_idle_rtt_*: the same calls for --idle-query-s (5 s) after the replay and its tail,
 //     against the same services, now idle: the baseline of the machine and transport at
 //     that moment, without the pipeline's own load.
@@ -110,6 +114,7 @@
 #include <vector>
 
 #include "fuse/core/logging.hpp"
+#include "fuse/core/scheduling.hpp"
 #include "fuse/io/cdr_codec.hpp"
 #include "fuse/io/sensor_source.hpp"
 #include "fuse/query/client.hpp"
@@ -150,6 +155,7 @@ struct Options {
   double query_hz = 1000.0;
   double query_lag_ms = 20.0;
   int query_deadline_ms = 200;
+  int query_slice_us = 100;
   bool query = true;
   bool breakdown = true;
   bool observe_scan = false;
@@ -163,7 +169,8 @@ void usage(std::ostream& os) {
   os << "usage: fuse-bench-pipeline --config FILE [--set key=value]... [--domain N] [--vendor V]\n"
         "         --start-wall UNIX_S [--rate R] (--input RECORDING | --t0 T --duration S)\n"
         "         [--warmup-s S] [--tail-s S] [--idle-query-s S] [--query-hz HZ] [--query-lag-ms MS]\n"
-        "         [--query-deadline-ms MS] [--no-query] [--no-breakdown] [--observe-scan] [--csv PREFIX]\n"
+        "         [--query-deadline-ms MS] [--query-slice-us US] [--no-query] [--no-breakdown] [--observe-scan]\n"
+        "         [--csv PREFIX]\n"
         "       fuse-bench-pipeline --config FILE [--set key=value]... --lockstep-scans N [--idle-s S]\n"
         "       fuse-bench-pipeline --codec --input RECORDING\n"
         "  Attach to a pipeline replaying in real time (fuse-ingest --mode realtime with the same\n"
@@ -225,6 +232,8 @@ Options parse(int argc, char** argv) {
       o.query_lag_ms = number(k, value());
     } else if (k == "--query-deadline-ms") {
       o.query_deadline_ms = static_cast<int>(number(k, value()));
+    } else if (k == "--query-slice-us") {
+      o.query_slice_us = static_cast<int>(number(k, value()));
     } else if (k == "--no-query") {
       o.query = false;
     } else if (k == "--no-breakdown") {
@@ -256,6 +265,9 @@ Options parse(int argc, char** argv) {
   if (!(o.rate > 0.0)) throw std::invalid_argument("--rate must be positive");
   if (!(o.query_hz > 0.0 && o.query_hz <= 20000.0)) throw std::invalid_argument("--query-hz must be in (0, 20000]");
   if (o.query_deadline_ms <= 0) throw std::invalid_argument("--query-deadline-ms must be positive");
+  if (o.query_slice_us != 0 && (o.query_slice_us < fuse::kMinSchedulerSliceUs || o.query_slice_us > fuse::kMaxSchedulerSliceUs)) {
+    throw std::invalid_argument("--query-slice-us must be 0 or in [100, 100000]");
+  }
   if (o.warmup_s < 0.0 || o.tail_s < 0.0 || o.query_lag_ms < 0.0) {
     throw std::invalid_argument("--warmup-s, --tail-s and --query-lag-ms must not be negative");
   }
@@ -679,7 +691,12 @@ int main(int argc, char** argv) {
       co.socket_buffer_bytes = config.transport.socket_buffer_bytes;
       co.deadline_ms = o.query_deadline_ms;
       co.participant_name = "fuse-bench-pipeline-query";
+      co.scheduler_slice_us = o.query_slice_us;
       client = std::make_unique<query::Client>(co);
+      // The calling thread is the planner's: it asks for the same slice as the client's threads.
+      if (o.query_slice_us > 0 && !fuse::request_scheduler_slice(o.query_slice_us).applied) {
+        std::cerr << "fuse-bench-pipeline: scheduler slice not applied (kernel default)\n";
+      }
     }
   } catch (const std::exception& e) {
     std::cerr << "fuse-bench-pipeline: transport: " << e.what() << "\n";

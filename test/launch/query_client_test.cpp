@@ -1,12 +1,16 @@
 // fuse::query::Client against a stand-in query server (DDS domain 40): every field of a known
 // estimate, the statuses, typed errors, client-side rejection of invalid times, the deadline
-// with no server (domain 41), option checks and concurrent calls.
+// with no server (domain 41), option checks, concurrent calls and the scheduler slice of the
+// client's transport threads.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <limits>
+#include <set>
 #include <thread>
 
+#include "fuse/core/scheduling.hpp"
 #include "fuse/query/client.hpp"
 #include "query_server.hpp"
 #include "test_helpers.hpp"
@@ -164,6 +168,45 @@ TEST(QueryClientAlone, RefusesBadOptions) {
   EXPECT_THROW(make([](ClientOptions& o) { o.deadline_ms = 0; }), std::invalid_argument);
   EXPECT_THROW(make([](ClientOptions& o) { o.max_participants = 2; }), std::invalid_argument);
   EXPECT_THROW(make([](ClientOptions& o) { o.socket_buffer_bytes = 1024; }), std::invalid_argument);
+}
+
+/// The thread ids of this process.
+std::set<int> thread_ids() {
+  std::set<int> ids;
+  for (const auto& entry : std::filesystem::directory_iterator("/proc/self/task")) {
+    ids.insert(std::stoi(entry.path().filename().string()));
+  }
+  return ids;
+}
+
+TEST(QueryClientAlone, ItsTransportThreadsRunWithTheRequestedSlice) {
+  bool supported = false;
+  std::thread([&] { supported = request_scheduler_slice(kMinSchedulerSliceUs).applied; }).join();
+  if (!supported) GTEST_SKIP() << "no per-thread scheduler slices on this kernel (Linux 6.12+)";
+  const int caller_slice = scheduler_slice_us();
+  for (const int slice : {300, 0}) {
+    const std::set<int> before = thread_ids();
+    ClientOptions o = options(kEmptyDomain);
+    o.scheduler_slice_us = slice;
+    Client client(o);
+    std::size_t new_threads = 0;
+    for (const int tid : thread_ids()) {
+      if (before.count(tid) != 0) continue;
+      ++new_threads;
+      if (slice > 0) {
+        EXPECT_EQ(scheduler_slice_us(tid), slice) << "transport thread " << tid;
+      } else {
+        EXPECT_EQ(scheduler_slice_us(tid), caller_slice) << "transport thread " << tid << " keeps the default";
+      }
+    }
+    EXPECT_GT(new_threads, 0u) << "the client's participant starts threads of its own";
+    EXPECT_EQ(scheduler_slice_us(), caller_slice) << "the caller's thread is left as it was";
+  }
+  ClientOptions o = options(kEmptyDomain);
+  for (const int bad : {-1, 50, 100001}) {
+    o.scheduler_slice_us = bad;
+    EXPECT_THROW(Client{o}, std::invalid_argument) << bad;
+  }
 }
 
 TEST(QueryClientAlone, NamesErrorsAndStatuses) {

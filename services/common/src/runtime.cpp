@@ -1,5 +1,7 @@
 #include "fuse/service/runtime.hpp"
 
+#include <pthread.h>
+
 #include <atomic>
 #include <condition_variable>
 #include <mutex>
@@ -8,6 +10,7 @@
 #include <thread>
 
 #include "fuse/core/logging.hpp"
+#include "fuse/core/scheduling.hpp"
 
 namespace fuse::service {
 
@@ -48,6 +51,7 @@ void install_signal_handling() {
   sigaddset(&set, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &set, nullptr);
   std::thread([set] {
+    pthread_setname_np(pthread_self(), "fuse-signals");  // started before the config is read
     int sig = 0;
     sigwait(&set, &sig);
     {
@@ -82,6 +86,15 @@ bool start_service(const std::string& name, int argc, char** argv, const std::se
   }
   logger(name)->info("config {} loaded; transport {} domain {}", args.config_file, config.transport.vendor,
                      config.transport.domain_id);
+  // Before any thread is started, so that all of the service's threads inherit it.
+  if (const int slice_us = config.scheduling.slice_us(name); slice_us > 0) {
+    const SliceRequest r = request_scheduler_slice(slice_us);
+    if (r.applied) {
+      logger(name)->info("scheduler slice {} us (scheduling.*_slice_us)", slice_us);
+    } else {
+      logger(name)->warn("scheduler slice {} us not applied, running with the kernel's default: {}", slice_us, r.message);
+    }
+  }
   return true;
 }
 

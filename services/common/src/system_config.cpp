@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "fuse/core/scheduling.hpp"
+
 namespace fuse::service {
 
 void IngestConfig::load(ConfigNode& node) {
@@ -35,6 +37,27 @@ void UpdateServiceConfig::load(ConfigNode& node) {
   node.finish();
 }
 
+int SchedulingConfig::slice_us(const std::string& service) const {
+  if (service == "fuse-ingest") return ingest_slice_us;
+  if (service == "fuse-state") return state_slice_us;
+  if (service == "fuse-update") return update_slice_us;
+  if (service == "fuse-map") return map_slice_us;
+  return 0;
+}
+
+void SchedulingConfig::load(ConfigNode& node) {
+  node.get("ingest_slice_us", ingest_slice_us).get("state_slice_us", state_slice_us);
+  node.get("update_slice_us", update_slice_us).get("map_slice_us", map_slice_us);
+  const auto valid = [](int us) { return us == 0 || (us >= kMinSchedulerSliceUs && us <= kMaxSchedulerSliceUs); };
+  const std::string range = "must be 0 (kernel default) or in [" + std::to_string(kMinSchedulerSliceUs) + ", " +
+                            std::to_string(kMaxSchedulerSliceUs) + "] us";
+  node.check(valid(ingest_slice_us), "ingest_slice_us", range);
+  node.check(valid(state_slice_us), "state_slice_us", range);
+  node.check(valid(update_slice_us), "update_slice_us", range);
+  node.check(valid(map_slice_us), "map_slice_us", range);
+  node.finish();
+}
+
 void HealthConfig::load(ConfigNode& node) {
   node.get("period_s", period_s);
   node.check(period_s >= 0.05 && period_s <= 60.0, "period_s", "must be in [0.05, 60] s");
@@ -48,6 +71,7 @@ void SystemConfig::load(ConfigNode& root) {
   load_section(root, "state", state);
   load_section(root, "update", update);
   load_section(root, "map_server", map_server);
+  load_section(root, "scheduling", scheduling);
   load_section(root, "health", health);
   root.finish();
 }

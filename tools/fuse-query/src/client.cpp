@@ -4,8 +4,11 @@
 
 #include <algorithm>
 #include <chrono>
+#include <exception>
 #include <stdexcept>
+#include <thread>
 
+#include "fuse/core/scheduling.hpp"
 #include "fuse/transport/rpc.hpp"
 #include "time_check.hpp"
 #include "wire_conversion.hpp"
@@ -31,6 +34,11 @@ const ClientOptions& checked(const ClientOptions& o) {
   if (o.socket_buffer_bytes < (64u << 10) || o.socket_buffer_bytes > (256u << 20)) {
     throw std::invalid_argument("socket_buffer_bytes must be in [64 KiB, 256 MiB]");
   }
+  if (o.scheduler_slice_us != 0 &&
+      (o.scheduler_slice_us < kMinSchedulerSliceUs || o.scheduler_slice_us > kMaxSchedulerSliceUs)) {
+    throw std::invalid_argument("scheduler_slice_us must be 0 or in [" + std::to_string(kMinSchedulerSliceUs) + ", " +
+                                std::to_string(kMaxSchedulerSliceUs) + "]");
+  }
   return o;
 }
 
@@ -44,30 +52,50 @@ transport::TransportConfig transport_config(const ClientOptions& o) {
   c.socket_buffer_bytes = o.socket_buffer_bytes;
   return c;
 }
+
+/// The participant and the RPC endpoints, made on a thread of their own that requests the
+/// configured slice first: the transport threads they start inherit it, the caller's thread
+/// keeps its attributes.
+struct Endpoints {
+  std::unique_ptr<transport::Participant> participant;
+  std::unique_ptr<QueryRpc> rpc;  // destroyed before the participant (declared after it)
+};
+
+Endpoints make_endpoints(const ClientOptions& o) {
+  Endpoints e;
+  std::exception_ptr error;
+  std::thread([&] {
+    try {
+      if (o.scheduler_slice_us > 0) request_scheduler_slice(o.scheduler_slice_us);  // not applied: default slice
+      e.participant = transport::make_participant(transport_config(o), o.participant_name);
+      e.rpc = std::make_unique<QueryRpc>(*e.participant, transport::services::kQuery);
+    } catch (...) {
+      error = std::current_exception();
+    }
+  }).join();
+  if (error) std::rethrow_exception(error);
+  return e;
+}
 }  // namespace
 
 class Client::Impl {
  public:
-  explicit Impl(const ClientOptions& options)
-      : options_(checked(options)),
-        participant_(transport::make_participant(transport_config(options_), options_.participant_name)),
-        rpc_(*participant_, transport::services::kQuery) {}
+  explicit Impl(const ClientOptions& options) : options_(checked(options)), endpoints_(make_endpoints(options_)) {}
 
   Result call(fuse_msgs::QueryRequest request) {
-    const auto r = rpc_.call(std::move(request), std::chrono::milliseconds(options_.deadline_ms));
+    const auto r = endpoints_.rpc->call(std::move(request), std::chrono::milliseconds(options_.deadline_ms));
     return to_result(r.status, r.message, r.reply);
   }
 
   bool wait_for_server(int timeout_ms) const {
-    return rpc_.wait_for_server(std::chrono::milliseconds(std::max(timeout_ms, 0)));
+    return endpoints_.rpc->wait_for_server(std::chrono::milliseconds(std::max(timeout_ms, 0)));
   }
 
   const ClientOptions& options() const { return options_; }
 
  private:
   ClientOptions options_;
-  std::unique_ptr<transport::Participant> participant_;  // outlives rpc_ (declared first)
-  QueryRpc rpc_;
+  Endpoints endpoints_;
 };
 
 Client::Client(const ClientOptions& options) : impl_(std::make_unique<Impl>(options)) {}
