@@ -162,6 +162,20 @@ TEST_F(BadInputTest, UnknownConfigKeyIsRefusedNamingTheKey) {
   EXPECT_NE(out.find("estimator.update.max_iteratons"), std::string::npos) << out;
 }
 
+// One config file serves fuse-run and the services: fuse-run leaves every service section to
+// the services (they validate it) and still refuses a section nobody reads.
+TEST(RunnerConfig, AcceptsEveryServiceSectionAndRefusesAnUnknownOne) {
+  EXPECT_NO_THROW(load_runner_config(kConfig, {"transport.domain_id=3", "ingest.rate=2", "state.imu_buffer_s=5",
+                                               "update.max_unacked=20", "map_server.snapshot_every=10",
+                                               "scheduling.state_slice_us=100", "health.period_s=1"}));
+  try {
+    load_runner_config(kConfig, {"planner.rate=10"});
+    ADD_FAILURE() << "an unknown section was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("planner"), std::string::npos) << e.what();
+  }
+}
+
 TEST_F(BadInputTest, BadConfigValueIsRefusedNamingTheKey) {
   std::string out;
   const int code = run_on(dir_, "--set estimator.preprocess.voxel_size=-1", out);
