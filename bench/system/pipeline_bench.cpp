@@ -265,7 +265,7 @@ Options parse(int argc, char** argv) {
   if (!(o.rate > 0.0)) throw std::invalid_argument("--rate must be positive");
   if (!(o.query_hz > 0.0 && o.query_hz <= 20000.0)) throw std::invalid_argument("--query-hz must be in (0, 20000]");
   if (o.query_deadline_ms <= 0) throw std::invalid_argument("--query-deadline-ms must be positive");
-  if (o.query_slice_us != 0 && (o.query_slice_us < fuse::kMinSchedulerSliceUs || o.query_slice_us > fuse::kMaxSchedulerSliceUs)) {
+  if (!fuse::valid_scheduler_slice(o.query_slice_us)) {
     throw std::invalid_argument("--query-slice-us must be 0 or in [100, 100000]");
   }
   if (o.warmup_s < 0.0 || o.tail_s < 0.0 || o.query_lag_ms < 0.0) {

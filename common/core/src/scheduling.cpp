@@ -40,7 +40,7 @@ int scheduler_slice_us(int tid) {
 }
 
 SliceRequest request_scheduler_slice(int slice_us) {
-  if (slice_us != 0 && (slice_us < kMinSchedulerSliceUs || slice_us > kMaxSchedulerSliceUs)) {
+  if (!valid_scheduler_slice(slice_us)) {
     throw std::invalid_argument("scheduler slice " + std::to_string(slice_us) + " us is outside " +
                                 std::to_string(kMinSchedulerSliceUs) + ".." + std::to_string(kMaxSchedulerSliceUs) +
                                 " (or 0 for the kernel default)");

@@ -48,13 +48,12 @@ int SchedulingConfig::slice_us(const std::string& service) const {
 void SchedulingConfig::load(ConfigNode& node) {
   node.get("ingest_slice_us", ingest_slice_us).get("state_slice_us", state_slice_us);
   node.get("update_slice_us", update_slice_us).get("map_slice_us", map_slice_us);
-  const auto valid = [](int us) { return us == 0 || (us >= kMinSchedulerSliceUs && us <= kMaxSchedulerSliceUs); };
   const std::string range = "must be 0 (kernel default) or in [" + std::to_string(kMinSchedulerSliceUs) + ", " +
                             std::to_string(kMaxSchedulerSliceUs) + "] us";
-  node.check(valid(ingest_slice_us), "ingest_slice_us", range);
-  node.check(valid(state_slice_us), "state_slice_us", range);
-  node.check(valid(update_slice_us), "update_slice_us", range);
-  node.check(valid(map_slice_us), "map_slice_us", range);
+  node.check(valid_scheduler_slice(ingest_slice_us), "ingest_slice_us", range);
+  node.check(valid_scheduler_slice(state_slice_us), "state_slice_us", range);
+  node.check(valid_scheduler_slice(update_slice_us), "update_slice_us", range);
+  node.check(valid_scheduler_slice(map_slice_us), "map_slice_us", range);
   node.finish();
 }
 

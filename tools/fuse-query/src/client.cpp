@@ -34,8 +34,7 @@ const ClientOptions& checked(const ClientOptions& o) {
   if (o.socket_buffer_bytes < (64u << 10) || o.socket_buffer_bytes > (256u << 20)) {
     throw std::invalid_argument("socket_buffer_bytes must be in [64 KiB, 256 MiB]");
   }
-  if (o.scheduler_slice_us != 0 &&
-      (o.scheduler_slice_us < kMinSchedulerSliceUs || o.scheduler_slice_us > kMaxSchedulerSliceUs)) {
+  if (!valid_scheduler_slice(o.scheduler_slice_us)) {
     throw std::invalid_argument("scheduler_slice_us must be 0 or in [" + std::to_string(kMinSchedulerSliceUs) + ", " +
                                 std::to_string(kMaxSchedulerSliceUs) + "]");
   }

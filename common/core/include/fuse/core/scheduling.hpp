@@ -21,6 +21,11 @@ namespace fuse {
 inline constexpr int kMinSchedulerSliceUs = 100;
 inline constexpr int kMaxSchedulerSliceUs = 100000;
 
+/// True for a value request_scheduler_slice accepts: 0, or within the bounds above.
+inline constexpr bool valid_scheduler_slice(int slice_us) {
+  return slice_us == 0 || (slice_us >= kMinSchedulerSliceUs && slice_us <= kMaxSchedulerSliceUs);
+}
+
 struct SliceRequest {
   bool applied = false;  ///< the kernel holds the requested slice for the thread
   std::string message;   ///< why not, when !applied

@@ -51,9 +51,9 @@ struct UpdateServiceConfig {
 /// Scheduler slice requests per service (fuse/core/scheduling.hpp), applied to the service's
 /// main thread once the config is read, before it starts any other thread, so every thread it
 /// runs (the transport's receive and event threads among them) inherits them; only the
-/// signal-waiting thread ("fuse-signals", started first) keeps the default. 0 keeps the kernel's default slice (1.4 ms on two
-/// CPUs); 100..100000 us requests a shorter or longer one (Linux 6.12 and later; older kernels
-/// ignore it, and the service logs so). fuse-state serves the query and history RPCs and
+/// signal-waiting thread ("fuse-signals", started first) keeps the default. 0 keeps the
+/// kernel's default slice (1.4 ms on two CPUs); 100..100000 us requests a shorter or longer one
+/// (Linux 6.12 and later; older kernels ignore it, and the service logs so). fuse-state serves the query and history RPCs and
 /// publishes odometry in short bursts: a 100 us slice lets those threads preempt a CPU-bound
 /// update when they wake instead of waiting for its slice to end (docs/performance.md).
 struct SchedulingConfig {
