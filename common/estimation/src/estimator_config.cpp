@@ -29,7 +29,7 @@ void InitialCovarianceConfig::load(ConfigNode& node) {
 void DivergenceConfig::load(ConfigNode& node) {
   node.get("max_position_std", max_position_std).get("max_scans_without_constraints", max_scans_without_constraints);
   node.get("max_imu_gap", max_imu_gap).get("gap_accel_std", gap_accel_std).get("gap_gyro_std", gap_gyro_std);
-  node.get("gap_rate_window", gap_rate_window);
+  node.get("gap_rate_window", gap_rate_window).get("gap_level", gap_level);
   node.check(std::isfinite(gap_rate_window) && gap_rate_window >= 0.0 && gap_rate_window <= 10.0, "gap_rate_window",
              "must be in [0, 10] s");
   node.check(std::isfinite(gap_accel_std) && gap_accel_std >= 0.0, "gap_accel_std", "must be finite and >= 0");
@@ -43,11 +43,18 @@ void DivergenceConfig::load(ConfigNode& node) {
 void RecoveryConfig::load(ConfigNode& node) {
   node.get("enabled", enabled).get("position_std", position_std).get("rotation_std", rotation_std);
   node.get("max_iterations", max_iterations).get("reassociate_iterations", reassociate_iterations);
+  node.get("heading_hypotheses", heading_hypotheses).get("inlier_residual", inlier_residual);
+  node.get("heading_margin", heading_margin).get("min_fit", min_fit);
   node.check(std::isfinite(position_std) && position_std > 0.0, "position_std", "must be positive and finite");
   node.check(std::isfinite(rotation_std) && rotation_std > 0.0, "rotation_std", "must be positive and finite");
   node.check(max_iterations >= 1 && max_iterations <= 50, "max_iterations", "must be in [1, 50]");
   node.check(reassociate_iterations >= 1 && reassociate_iterations <= max_iterations, "reassociate_iterations",
              "must be in [1, max_iterations]");
+  node.check(heading_hypotheses >= 1 && heading_hypotheses <= 72, "heading_hypotheses", "must be in [1, 72]");
+  node.check(std::isfinite(inlier_residual) && inlier_residual > 0.0, "inlier_residual", "must be positive and finite");
+  node.check(std::isfinite(heading_margin) && heading_margin >= 0.0 && heading_margin < 1.0, "heading_margin",
+             "must be in [0, 1)");
+  node.check(std::isfinite(min_fit) && min_fit >= 0.0 && min_fit <= 1.0, "min_fit", "must be in [0, 1]");
   node.finish();
 }
 

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include "fuse/core/logging.hpp"
 
@@ -77,7 +78,12 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
   report.sequence = scan.sequence;
   report.points_in = scan.points.size();
   points_W_.clear();
-  // 1. Range filter and voxel downsampling on the raw (LiDAR frame) points.
+  // 1. Range filter and voxel downsampling on the raw (LiDAR frame) points. Points measured before
+  //    the end of a data gap in the scan are dropped: nothing measured the motion that would
+  //    deskew them (a handheld sensor turns by ~15° in a 0.1 s scan).
+  const double measured_since =
+      history.measured_since(scan.t_start, scan.t_end, config_.divergence.max_imu_gap) - scan.t_start;
+  std::size_t in_gap = 0;
   const double min_r2 = config_.preprocess.min_range * config_.preprocess.min_range;
   const double max_r2 = config_.preprocess.max_range * config_.preprocess.max_range;
   raw_.clear();
@@ -87,8 +93,16 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
     const Eigen::Vector3f v(p.x, p.y, p.z);
     const double r2 = v.squaredNorm();
     if (!v.allFinite() || r2 < min_r2 || r2 > max_r2) continue;
+    if (p.t_rel < measured_since) {
+      ++in_gap;
+      continue;
+    }
     raw_.push_back(v);
     in_range_.push_back(i);
+  }
+  if (in_gap > 0) {
+    counters_.count("scan_points_in_data_gap", std::to_string(in_gap) + " points of the scan at t=" +
+                                                   std::to_string(scan.t_end) + " were measured during a data gap: dropped");
   }
   downsample();
   order_spatially();
@@ -127,9 +141,14 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
                                           " (data gap or restart): re-localising against the map");
   }
   if (map_->size() > 0) {
-    PointToPlaneModel model(report.recovery ? recovery_measurement_ : config_.measurement, points_L_, *map_,
-                            report.recovery ? recovery_associator_ : associator_, constraints_);
-    const UpdateResult result = update(model, history, scan.t_end);
+    UpdateResult result;
+    if (report.recovery) {
+      result = relocalise(history, scan.t_end, report);
+    } else {
+      PointToPlaneModel model(config_.measurement, points_L_, *map_, associator_, constraints_);
+      result = update(model, history, scan.t_end);
+      report.ms_association = model.association_ms();
+    }
     x = history.query(scan.t_end).x;
     report.updated = result.updated;
     report.iterations = result.iterations;
@@ -142,7 +161,6 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
     report.min_eig_rotation = result.degeneracy.min_eigenvalue_rotation;
     report.min_gamma = result.degeneracy.min_gamma;
     report.min_eig_ratio = result.degeneracy.min_ratio;
-    report.ms_association = model.association_ms();
   }
   report.ms_update = ms_since(t_stage) - report.ms_association;
 
@@ -156,9 +174,11 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
   for (std::size_t i = 0; i < points_L_.size(); ++i) points_W_[i] = R * points_L_[i] + t;
   // The association's nearest-neighbour distances are reused when it ran on this scan's points.
   const bool have_nearest = report.updated && constraints_.nearest_dist2.size() == points_W_.size();
-  if (report.recovery && !report.converged) {
+  if (report.recovery && (!report.converged || report.fit < config_.recovery.min_fit)) {
     // Not re-localised yet: a misplaced scan in the map would pull the later ones towards it.
-    counters_.count("recovery_not_mapped", "re-localisation did not converge at t=" + std::to_string(scan.t_end) +
+    counters_.count("recovery_not_mapped", "re-localisation at t=" + std::to_string(scan.t_end) +
+                                               (report.converged ? " fits poorly (fit " + std::to_string(report.fit) + ")"
+                                                                 : " did not converge") +
                                                ": scan not added to the map");
     points_W_.clear();  // nothing accepted to offer (last_world_points)
   } else {
@@ -171,6 +191,78 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
   report.ms_total = ms_since(t0);
   check_divergence(report, history);
   return report;
+}
+
+// Heading search: the recovery update (no screening, recovery caps) from K priors
+//   x_k = x̂ with R_WI,k = Exp(ψ_k u) R̂_WI,  ψ_k = 2πk/K,  u = −ĝ/|ĝ| (up),
+// each scored by the negative log-posterior of its result x_k⁺ under a truncated-Gaussian point
+// model (σ = measurement.point_sigma, τ = recovery.inlier_residual) and the prior's pose block:
+//   E_k = Σ_{j=1..N} min(r_j², τ²)/σ² + ‖x_k⁺ ⊟ x̂‖²_{P_pose}
+// over the N scan points (a point without a constraint costs τ²/σ²). The prior's own result (k = 0)
+// stands unless a converged x_k⁺ has E_k < E_0 − m·N·τ²/σ² (m = recovery.heading_margin), so that a
+// symmetric place, which fits its mirror image almost as well, keeps the prior's heading.
+// Rotating the whole history about the vertical leaves the deskewed points unchanged, so the
+// hypotheses share them. Only a prior whose heading σ exceeds recovery.rotation_std searches.
+UpdateResult LidarUpdater::relocalise(StateHistory& history, double t, ScanReport& report) {
+  const StateQuery prior = history.query(t);
+  const Eigen::Vector3d up = -prior.x.g.normalized();
+  // Only a prior whose heading is uncertain searches: σ_ψ² = (R̂ᵀu)ᵀ P_θθ (R̂ᵀu) (body-frame δθ).
+  const Eigen::Vector3d up_I = prior.x.R.transpose() * up;
+  const double heading_std = std::sqrt(std::max(up_I.dot(prior.P.block<3, 3>(Idx::kRot, Idx::kRot) * up_I), 0.0));
+  const int K = heading_std > config_.recovery.rotation_std ? config_.recovery.heading_hypotheses : 1;
+  const double tau = config_.recovery.inlier_residual, sigma = recovery_measurement_.point_sigma;
+  const double outlier_cost = tau * tau / (sigma * sigma);
+  const double margin = config_.recovery.heading_margin * static_cast<double>(points_L_.size()) * outlier_cost;
+  const Eigen::Matrix<double, 6, 6> pose_information = prior.P.topLeftCorner<6, 6>().inverse();
+  auto log_posterior_cost = [&](const NavState& x, double& fit) {
+    double residual_cost = 0.0;  // Σ min(r², τ²)/σ² over the constrained points
+    for (const Constraint& c : constraints_.constraints) {
+      const double r = point_to_plane_residual(x, c);
+      residual_cost += std::min(r * r, tau * tau) / (sigma * sigma);
+    }
+    const double unconstrained = static_cast<double>(points_L_.size() - constraints_.constraints.size());
+    const double points_cost = residual_cost + unconstrained * outlier_cost;
+    fit = 1.0 - points_cost / (outlier_cost * static_cast<double>(std::max<std::size_t>(points_L_.size(), 1)));
+    Eigen::Matrix<double, 6, 1> d;
+    d << x.p - prior.x.p, so3::Log(prior.x.R.transpose() * x.R);
+    return points_cost + d.dot(pose_information * d);
+  };
+  UpdateResult best;
+  NavState best_x = prior.x;
+  StateCovariance best_P = prior.P;
+  double best_cost = 0.0, prior_cost = 0.0;
+  report.ms_association = 0.0;
+  for (int k = 0; k < K; ++k) {
+    const double psi = 2.0 * M_PI * k / K;
+    NavState x = prior.x;
+    x.R = so3::Normalize(so3::Exp(psi * up) * prior.x.R);
+    StateCovariance P = prior.P;
+    PointToPlaneModel model(recovery_measurement_, points_L_, *map_, recovery_associator_, constraints_);
+    const UpdateResult result = recovery_backend_->update(x, P, model);
+    report.ms_association += model.association_ms();
+    double fit = 0.0;
+    const double cost = result.updated ? log_posterior_cost(x, fit) : std::numeric_limits<double>::infinity();
+    logger("estimator")->debug("re-localisation at t={:.6f} from heading {:+.0f} deg: fit {:.3f}, cost {:.1f}, {} iterations{}",
+                               t, psi * 180.0 / M_PI, fit, cost, result.iterations, result.converged ? "" : " (not converged)");
+    if (k == 0) prior_cost = cost;
+    const bool better = k == 0 || (result.updated && result.converged && cost < prior_cost - margin && cost < best_cost);
+    if (!better) continue;
+    best = result;
+    best_x = x;
+    best_P = P;
+    best_cost = cost;
+    report.fit = fit;
+    report.heading_change = psi > M_PI ? psi - 2.0 * M_PI : psi;
+    std::swap(best_constraints_, constraints_);
+  }
+  std::swap(best_constraints_, constraints_);  // the kept hypothesis' constraints (map policy, report)
+  if (report.heading_change != 0.0) {
+    counters_.count("recovery_heading_changed", "re-localisation at t=" + std::to_string(t) + " started from a heading " +
+                                                    std::to_string(report.heading_change * 180.0 / M_PI) +
+                                                    " deg off the prior's: a better fit");
+  }
+  if (best.updated) history.correct(t, best_x, best_P);
+  return best;
 }
 
 void LidarUpdater::downsample() {

@@ -133,6 +133,17 @@ StateQuery StateHistory::query(double t) const {
   return q;
 }
 
+double StateHistory::measured_since(double t0, double t1, double max_step) const {
+  double since = t0;
+  if (entries_.empty() || t1 < entries_.front().t) return since;
+  for (std::size_t i = t0 < entries_.front().t ? 0 : find_at_or_before(t0); i + 1 < entries_.size(); ++i) {
+    const double a = entries_[i].t, b = entries_[i + 1].t;
+    if (b > t1 + kSameTime) break;
+    if (b > t0 && b - a > max_step) since = b;
+  }
+  return since;
+}
+
 std::vector<const StateHistory::Entry*> StateHistory::entries_between(double t0, double t1) const {
   std::vector<const Entry*> out;
   for (const Entry& e : entries_) {

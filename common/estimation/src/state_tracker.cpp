@@ -77,8 +77,40 @@ void StateTracker::coast_across_gap(const ImuSample& imu) {
   history_.add_imu(coast);  // same instant: replaces the held measurement
   coast.t = imu.t - kLastStep;
   history_.add_imu(coast);
+  NavState x = history_.newest().x;
+  StateCovariance P = history_.newest().P + gap_noise(gap);
+  if (config_.divergence.gap_level) {
+    level_with_accelerometer(imu.accel - x.ba, config_.divergence.gap_accel_std / x.g.norm(), x, P);
+  }
+  history_.amend_newest(x, P);
   history_.add_imu(imu);
-  history_.inflate_newest(gap_noise(gap));
+}
+
+void level_with_accelerometer(const Eigen::Vector3d& f, double sigma, NavState& x, StateCovariance& P) {
+  // Iterated EKF on the rotation block (right perturbation R = R̂·Exp(δθ)):
+  //   h(x) = R_WIᵀu,  H = ∂h/∂δθ = [R_WIᵀu]×,  r = f/|f| − h(x_i),
+  //   δx_{i+1} = δx_i + K_i (r_i − H_i δx_i),  K_i = P Hᵢᵀ (H_i P_rr Hᵢᵀ + σ² I)⁻¹,
+  // relinearised at x_i = x̂ ⊞ δx_i (a gap can leave tens of degrees to correct), P ← (I − K H) P.
+  constexpr int kIterations = 5;
+  if (!(f.norm() > 0.0) || !(sigma > 0.0)) return;
+  const Eigen::Vector3d z = f.normalized();
+  const Eigen::Vector3d u = -x.g.normalized();
+  const NavState x0 = x;
+  StateVector dx = StateVector::Zero();
+  Eigen::Matrix<double, kStateDim, 3> K;
+  Eigen::Matrix3d H;
+  for (int i = 0; i < kIterations; ++i) {
+    const Eigen::Vector3d h = x.R.transpose() * u;
+    H = so3::hat(h);
+    const Eigen::Matrix3d S = H * P.block<3, 3>(Idx::kRot, Idx::kRot) * H.transpose() +
+                              sigma * sigma * Eigen::Matrix3d::Identity();
+    K = P.middleCols<3>(Idx::kRot) * H.transpose() * S.inverse();
+    dx += K * (z - h - H * dx.segment<3>(Idx::kRot));
+    x = x0.boxplus(dx);
+  }
+  const StateCovariance KHP = K * H * P.middleRows<3>(Idx::kRot);
+  P -= KHP;
+  P = 0.5 * (P + P.transpose()).eval();
 }
 
 Eigen::Vector3d agreed_rate(const Eigen::Vector3d& w0, const Eigen::Vector3d& w1) {

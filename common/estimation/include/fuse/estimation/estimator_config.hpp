@@ -62,6 +62,10 @@ struct DivergenceConfig {
   /// the first sample after it agree on (StateTracker, agreed_rate); one period of the slowest
   /// oscillation expected (handheld sway, gait) averages it out.
   double gap_rate_window = 1.0;
+  /// Level the coasted attitude with the first accelerometer sample after the gap: a gravity
+  /// direction update with noise σ_a/|g| (level_with_accelerometer). A handheld sensor sways by
+  /// tens of degrees of roll and pitch within a gap that no rate before or after it tells.
+  bool gap_level = true;
   void load(ConfigNode& node);
 };
 
@@ -80,6 +84,22 @@ struct RecoveryConfig {
   double rotation_std = 0.05;       ///< rad: ... or largest rotation σ above which
   int max_iterations = 20;          ///< update iterations of such a scan (iterated backends: ieskf, nano)
   int reassociate_iterations = 15;  ///< iterations of it that may search the map again
+  /// Heading search: a gap can hide a turn that no rotation rate before or after it tells (a
+  /// handheld sensor turns at up to ~150°/s), so the coasted heading may be off by anything. Such
+  /// a scan is re-localised from this many headings about the gravity axis, evenly spaced around
+  /// the prior's (1: the prior's only), and the most probable result is kept
+  /// (LidarUpdater::relocalise: truncated residual cost plus the prior's pose term).
+  int heading_hypotheses = 12;
+  /// m: τ, a point's residual cost is min(r², τ²)/σ² (farther is an outlier, as is a point
+  /// without a plane); the fit of a result is 1 − the mean of min(r², τ²)/τ².
+  double inlier_residual = 0.1;
+  /// Another heading's result replaces the prior's only if its cost is lower by this fraction of
+  /// the scan's points turned into outliers (a symmetric place such as a straight corridor fits
+  /// its mirror image almost as well as itself; the prior decides such ties).
+  double heading_margin = 0.02;
+  /// A re-localised scan whose fit is below this is not offered to the map (nor is one that did
+  /// not converge): a misplaced scan in the map would pull every later one towards it.
+  double min_fit = 0.5;
   void load(ConfigNode& node);
 };
 

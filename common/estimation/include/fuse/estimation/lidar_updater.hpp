@@ -37,6 +37,8 @@ struct ScanReport {
   int iterations = 0;
   bool converged = false;
   bool recovery = false;  ///< the prior was uncertain: re-localised (estimator.recovery)
+  double heading_change = 0.0;  ///< rad: heading the re-localisation's search moved the prior by (0: the prior's)
+  double fit = 0.0;  ///< re-localisation: 1 − mean truncated residual cost (min(r², τ²)/τ²) of the scan's points
   double min_eig_translation = 0.0, min_eig_rotation = 0.0, min_gamma = 1.0, min_eig_ratio = 1.0;
   std::size_t map_points = 0, map_inserted = 0;
   double ms_deskew = 0.0, ms_association = 0.0, ms_update = 0.0, ms_map = 0.0, ms_total = 0.0;
@@ -73,6 +75,9 @@ class LidarUpdater {
   void downsample();
   void order_spatially();
   void check_divergence(const ScanReport& report, const StateHistory& history);
+  /// Re-localises the scan at t from several headings and keeps the best fit (recovery.heading_*);
+  /// corrects the history at t and fills the report's update fields.
+  UpdateResult relocalise(StateHistory& history, double t, ScanReport& report);
 
   EstimatorConfig config_;
   std::unique_ptr<SpatialIndex> map_;
@@ -93,6 +98,7 @@ class LidarUpdater {
   std::vector<std::uint32_t> in_range_, kept_, kept_raw_;
   std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed_;
   ConstraintSet constraints_;
+  ConstraintSet best_constraints_;  ///< the heading search's best hypothesis so far
 };
 
 }  // namespace fuse

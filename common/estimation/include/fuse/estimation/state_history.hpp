@@ -55,8 +55,12 @@ class StateHistory {
 
   /// Propagates the newest entry to imu.t with the average of the held and the new measurement.
   void add_imu(const ImuSample& imu);
-  /// Adds Q to the newest entry's covariance (unmodelled motion, e.g. across a data gap).
-  void inflate_newest(const StateCovariance& Q) { entries_.back().P += Q; }
+  /// Replaces the newest entry's state and covariance without making it a correction (a data gap's
+  /// coasted state, its covariance grown by the unmodelled motion).
+  void amend_newest(const NavState& x, const StateCovariance& P) {
+    entries_.back().x = x;
+    entries_.back().P = P;
+  }
   /// Makes sure an entry exists at time t (t ≥ oldest; past the newest it extrapolates with the
   /// held measurement). Returns false when t is older than the history.
   bool ensure_entry(double t);
@@ -64,6 +68,10 @@ class StateHistory {
   void correct(double t, const NavState& x, const StateCovariance& P);
 
   StateQuery query(double t) const;
+  /// The end of the latest step between consecutive entries that is longer than max_step (coasted
+  /// across a data gap: nothing measured the motion) and ends in (t0, t1]; t0 when there is none.
+  /// Motion from before that time to t1 is not known.
+  double measured_since(double t0, double t1, double max_step) const;
   /// Entries with t0 ≤ t ≤ t1 (the caller interpolates between them).
   std::vector<const Entry*> entries_between(double t0, double t1) const;
 

@@ -16,6 +16,13 @@ namespace fuse {
 /// sign, else zero (minmod).
 Eigen::Vector3d agreed_rate(const Eigen::Vector3d& w0, const Eigen::Vector3d& w1);
 
+/// Gravity-direction update from one accelerometer sample: the bias-free specific force f (IMU
+/// frame) of a sensor that is not accelerating points up, f/|f| = R_WIᵀu with u = −g/|g|. An
+/// iterated EKF update of (x, P) with that measurement and noise σ² I₃ (σ in rad; σ_a/|g| for an
+/// unmodelled acceleration σ_a) corrects roll and pitch (and what correlates with them); the
+/// heading is unobservable from it and stays.
+void level_with_accelerometer(const Eigen::Vector3d& f, double sigma, NavState& x, StateCovariance& P);
+
 class StateTracker {
  public:
   explicit StateTracker(const EstimatorConfig& config);
