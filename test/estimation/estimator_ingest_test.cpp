@@ -158,3 +158,35 @@ TEST(EstimatorIngest, EmptyAndBadScansAreCounted) {
 
 }  // namespace
 }  // namespace fuse
+
+namespace fuse {
+namespace {
+
+// level_with_accelerometer: a still sensor's specific force restores roll and pitch that a gap left
+// wrong (up to tens of degrees), leaves the heading, and shrinks the tilt variance only.
+TEST(LevelWithAccelerometer, RestoresTiltKeepsHeading) {
+  const Eigen::Matrix3d R_true = (Eigen::AngleAxisd(2.0, Eigen::Vector3d::UnitZ()) *
+                                  Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY()) *
+                                  Eigen::AngleAxisd(-0.2, Eigen::Vector3d::UnitX())).toRotationMatrix();
+  NavState x;
+  x.R = R_true * so3::Exp(Eigen::Vector3d(0.5, -0.4, 0.0));  // ~37° of tilt error
+  StateCovariance P = StateCovariance::Identity() * 1e-4;
+  P.block<3, 3>(Idx::kRot, Idx::kRot) = Eigen::Matrix3d::Identity() * 0.35 * 0.35;
+  const Eigen::Vector3d f = R_true.transpose() * -x.g;  // still: f = R⊤(−g)
+  const Eigen::Vector3d heading_before = x.R.col(0);
+  level_with_accelerometer(f, 0.01, x, P);
+  const Eigen::Vector3d up(0, 0, 1);
+  EXPECT_LT(std::acos(std::min(1.0, (x.R * f.normalized()).dot(up))), 0.02);  // levelled to ~1°
+  // The heading (x axis projected on the horizontal plane) moved little compared with the tilt.
+  auto heading = [](const Eigen::Vector3d& a) { return std::atan2(a.y(), a.x()); };
+  EXPECT_LT(std::abs(heading(x.R.col(0)) - heading(heading_before)), 0.25);
+  EXPECT_LT(P(Idx::kRot, Idx::kRot), 0.35 * 0.35);
+  EXPECT_TRUE(P.allFinite());
+  // No specific force: nothing to level with, nothing changes.
+  const NavState y = x;
+  level_with_accelerometer(Eigen::Vector3d::Zero(), 0.01, x, P);
+  EXPECT_EQ(x.R, y.R);
+}
+
+}  // namespace
+}  // namespace fuse

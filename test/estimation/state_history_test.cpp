@@ -180,3 +180,24 @@ TEST(StateHistory, EnsureEntryDoesNotMarkTheStateCorrected) {
 
 }  // namespace
 }  // namespace fuse
+
+namespace fuse {
+namespace {
+
+// measured_since: a step longer than max_step (a coasted data gap) ending inside (t0, t1] marks
+// where measured motion starts; steps of the IMU period do not.
+TEST(StateHistory, MeasuredSinceIsTheEndOfTheLatestLongStep) {
+  StateHistory h = make_history(20);           // kT0 .. kT0 + 20 kDt, IMU-period steps
+  h.add_imu(imu_at(kT0 + 20 * kDt + 0.5));      // a 0.5 s step: a gap
+  const double gap_end = kT0 + 20 * kDt + 0.5;
+  for (int k = 1; k <= 10; ++k) h.add_imu(imu_at(gap_end + k * kDt));
+  const double t1 = gap_end + 10 * kDt;
+  EXPECT_DOUBLE_EQ(h.measured_since(kT0, kT0 + 20 * kDt, 0.1), kT0);  // no long step: t0
+  EXPECT_DOUBLE_EQ(h.measured_since(gap_end - 0.05, t1, 0.1), gap_end);   // step straddles t0
+  EXPECT_DOUBLE_EQ(h.measured_since(kT0, t1, 0.1), gap_end);
+  EXPECT_DOUBLE_EQ(h.measured_since(gap_end + kDt, t1, 0.1), gap_end + kDt);  // gap before t0
+  EXPECT_DOUBLE_EQ(h.measured_since(kT0, t1, 1.0), kT0);  // a longer max_step: not a gap
+}
+
+}  // namespace
+}  // namespace fuse

@@ -89,7 +89,7 @@ void StateTracker::coast_across_gap(const ImuSample& imu) {
 void level_with_accelerometer(const Eigen::Vector3d& f, double sigma, NavState& x, StateCovariance& P) {
   // Iterated EKF on the rotation block (right perturbation R = R̂·Exp(δθ)):
   //   h(x) = R_WIᵀu,  H = ∂h/∂δθ = [R_WIᵀu]×,  r = f/|f| − h(x_i),
-  //   δx_{i+1} = δx_i + K_i (r_i − H_i δx_i),  K_i = P Hᵢᵀ (H_i P_rr Hᵢᵀ + σ² I)⁻¹,
+  //   δx_{i+1} = K_i (r_i + H_i δx_i),  K_i = P Hᵢᵀ (H_i P_rr Hᵢᵀ + σ² I)⁻¹,
   // relinearised at x_i = x̂ ⊞ δx_i (a gap can leave tens of degrees to correct), P ← (I − K H) P.
   constexpr int kIterations = 5;
   if (!(f.norm() > 0.0) || !(sigma > 0.0)) return;
@@ -105,7 +105,7 @@ void level_with_accelerometer(const Eigen::Vector3d& f, double sigma, NavState& 
     const Eigen::Matrix3d S = H * P.block<3, 3>(Idx::kRot, Idx::kRot) * H.transpose() +
                               sigma * sigma * Eigen::Matrix3d::Identity();
     K = P.middleCols<3>(Idx::kRot) * H.transpose() * S.inverse();
-    dx += K * (z - h - H * dx.segment<3>(Idx::kRot));
+    dx = K * (z - h + H * dx.segment<3>(Idx::kRot));
     x = x0.boxplus(dx);
   }
   const StateCovariance KHP = K * H * P.middleRows<3>(Idx::kRot);
