@@ -231,6 +231,7 @@ UpdateResult LidarUpdater::relocalise(StateHistory& history, double t, ScanRepor
   NavState best_x = prior.x;
   StateCovariance best_P = prior.P;
   double best_cost = 0.0, prior_cost = 0.0;
+  double heading_change = 0.0;  // rad: the kept result's start heading off the prior's
   report.ms_association = 0.0;
   for (int k = 0; k < K; ++k) {
     const double psi = 2.0 * M_PI * k / K;
@@ -252,13 +253,13 @@ UpdateResult LidarUpdater::relocalise(StateHistory& history, double t, ScanRepor
     best_P = P;
     best_cost = cost;
     report.fit = fit;
-    report.heading_change = psi > M_PI ? psi - 2.0 * M_PI : psi;
+    heading_change = psi > M_PI ? psi - 2.0 * M_PI : psi;
     std::swap(best_constraints_, constraints_);
   }
   std::swap(best_constraints_, constraints_);  // the kept hypothesis' constraints (map policy, report)
-  if (report.heading_change != 0.0) {
+  if (heading_change != 0.0) {
     counters_.count("recovery_heading_changed", "re-localisation at t=" + std::to_string(t) + " started from a heading " +
-                                                    std::to_string(report.heading_change * 180.0 / M_PI) +
+                                                    std::to_string(heading_change * 180.0 / M_PI) +
                                                     " deg off the prior's: a better fit");
   }
   if (best.updated) history.correct(t, best_x, best_P);

@@ -37,7 +37,6 @@ struct ScanReport {
   int iterations = 0;
   bool converged = false;
   bool recovery = false;  ///< the prior was uncertain: re-localised (estimator.recovery)
-  double heading_change = 0.0;  ///< rad: heading the re-localisation's search moved the prior by (0: the prior's)
   double fit = 0.0;  ///< re-localisation: 1 − mean truncated residual cost (min(r², τ²)/τ²) of the scan's points
   double min_eig_translation = 0.0, min_eig_rotation = 0.0, min_gamma = 1.0, min_eig_ratio = 1.0;
   std::size_t map_points = 0, map_inserted = 0;
