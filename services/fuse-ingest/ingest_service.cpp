@@ -86,6 +86,25 @@ void IngestService::publish(const io::SensorEvent& ev) {
   counters_.add(ev.kind == io::SensorEvent::Kind::kImu ? "imu_published" : "scans_published");
 }
 
+void IngestService::confirm_imu_readers() {
+  // A matched reader on our side is not yet a reader that has matched us: discovery runs each
+  // way separately and a lost announcement is repeated only at the next heartbeat (seconds on
+  // Fast DDS). Until fuse-state has matched this writer it drops what we send, and a lockstep
+  // replay whose scans are all answered 'not initialised' runs ahead by more than the topic's
+  // depth, so fuse-state would miss the stationary start it initialises from. (In real time the
+  // depth holds seconds of IMU, longer than discovery takes.) The first sample's acknowledgment
+  // shows that every matched reader has matched back.
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(config_.ingest.start_wait_s);
+  while (std::chrono::steady_clock::now() < end && !stop_requested()) {
+    if (imu_.wait_for_acknowledgments(std::chrono::milliseconds(50))) return;
+    notifier().watchdog();
+  }
+  if (stop_requested()) return;
+  std::lock_guard<std::mutex> lock(mutex_);
+  counters_.count("imu_unacknowledged", "the IMU readers did not acknowledge the first sample within "
+                                        "ingest.start_wait_s: replaying anyway");
+}
+
 void IngestService::wait_for_correction(double t_end, std::uint64_t sequence) {
   std::unique_lock<std::mutex> lock(mutex_);
   const bool answered = cv_.wait_for(lock, std::chrono::duration<double>(config_.ingest.lockstep_timeout_s), [&] {
@@ -131,6 +150,7 @@ int IngestService::run() {
   double pending_t = 0.0;
   std::uint64_t pending_sequence = 0;
   std::size_t skipped = 0;
+  bool confirmed = !lockstep;  // lockstep: the IMU readers have acknowledged the first sample
   try {
     while (!stop_requested() && source_->next(ev)) {
       notifier().watchdog();
@@ -150,6 +170,10 @@ int IngestService::run() {
           pending = false;
         }
         publish(ev);
+        if (!confirmed && ev.kind == io::SensorEvent::Kind::kImu) {
+          confirm_imu_readers();
+          confirmed = true;
+        }
         if (ev.kind == io::SensorEvent::Kind::kLidar) {
           pending = true;
           pending_t = ev.scan.t_end;

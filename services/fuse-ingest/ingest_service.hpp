@@ -40,6 +40,8 @@ class IngestService {
 
  private:
   bool wait_for_pipeline();
+  /// Waits (ingest.start_wait_s) until every matched IMU reader has acknowledged what was sent.
+  void confirm_imu_readers();
   /// Lockstep: waits until fuse-update has answered the scan ending at t_end.
   void wait_for_correction(double t_end, std::uint64_t sequence);
   void publish(const io::SensorEvent& ev);

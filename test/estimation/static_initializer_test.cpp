@@ -1,6 +1,8 @@
 // Static initialisation (static_initializer.hpp) from synthetic still data: the mean gyro is the
-// gyro bias and R_WI·ā is along +z (roll and pitch); a moving window is refused.
+// gyro bias and R_WI·ā is along +z (roll and pitch); a moving window is refused, and a tracker
+// that only sees motion says so on its counters.
 #include "fuse/estimation/static_initializer.hpp"
+#include "fuse/estimation/state_tracker.hpp"
 
 #include <gtest/gtest.h>
 
@@ -55,6 +57,29 @@ TEST(StaticInitializer, RefusesMovingWindow) {
   const auto x = run_still(init, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero(), 5.0, rng, 0.5);
   EXPECT_FALSE(x.has_value());
   EXPECT_GT(init.restarts(), 0u);
+}
+
+// A tracker whose IMU starts in motion (a fuse-state that joined a moving replay) cannot
+// initialise; it counts every refused window, so that health shows why, and starts once at rest.
+TEST(StaticInitializer, TrackerCountsWindowsRefusedForMotion) {
+  std::mt19937 rng(62);
+  StateTracker tracker{EstimatorConfig{}};
+  auto feed = [&](double t0, double seconds, double wobble) {
+    for (int k = 0; k < static_cast<int>(seconds * kRate); ++k) {
+      ImuSample s;
+      s.t = t0 + k / kRate;
+      s.gyro = test::random_vector(rng, kGyroNoise) + Eigen::Vector3d(wobble * std::sin(6.0 * s.t), 0, 0);
+      s.accel = Eigen::Vector3d(0, 0, kGravity) + test::random_vector(rng, kAccelNoise);
+      tracker.ingest(s);
+    }
+  };
+  feed(10.0, 5.0, 0.5);
+  EXPECT_FALSE(tracker.initialised());
+  EXPECT_GE(tracker.counters().get("init_not_at_rest"), 5u);
+  const auto refused = tracker.counters().get("init_not_at_rest");
+  feed(15.0, 2.0, 0.0);
+  EXPECT_TRUE(tracker.initialised());
+  EXPECT_LE(tracker.counters().get("init_not_at_rest"), refused + 2) << "still windows counted as motion";
 }
 
 }  // namespace

@@ -233,6 +233,15 @@ class MultiProcess : public ::testing::Test {
     }
     EXPECT_EQ(p.wait_ingest(kReplayTimeout), 0) << p.log("fuse-ingest", 1);
     EXPECT_TRUE(p.stop_all());
+    return trajectory_of(p);
+  }
+  /// What fuse-state wrote; a run short of poses fails with the end of every service's log.
+  static std::vector<StampedPose> trajectory_of(Pipeline& p) {
+    if (line_count(p.trajectory()) + 30 < single_->trajectory.size()) {
+      ADD_FAILURE() << line_count(p.trajectory()) << " poses written, fuse-run has " << single_->trajectory.size() << "\n"
+                    << p.diagnose();
+      if (line_count(p.trajectory()) == 0) return {};
+    }
     return eval::read_tum(p.trajectory());
   }
 
@@ -270,7 +279,7 @@ TEST_F(MultiProcess, ServicesOnDifferentVendorsWorkTogether) {
   EXPECT_EQ(p.wait_ingest(kReplayTimeout), 0) << p.log("fuse-ingest", 1);
   EXPECT_TRUE(p.stop_all());
   std::size_t common = 0;
-  EXPECT_LE(max_difference(single_->trajectory, eval::read_tum(p.trajectory()), &common), 1e-3);
+  EXPECT_LE(max_difference(single_->trajectory, trajectory_of(p), &common), 1e-3);
   EXPECT_GE(common + 2, single_->trajectory.size());
 }
 

@@ -29,7 +29,14 @@ void StateTracker::ingest(const ImuSample& imu) {
     return;
   }
   if (!history_.initialised()) {
+    const std::size_t restarts = initializer_.restarts();
     if (auto x0 = initializer_.add(imu, config_.gravity_magnitude)) initialise(*x0, imu);
+    if (initializer_.restarts() > restarts) {
+      counters_.count("init_not_at_rest",
+                      fmt::format("not initialised: the IMU window ending at t={:.3f} shows motion; static "
+                                  "initialisation waits for the sensor to rest {:.2f} s (estimator.init.duration_s)",
+                                  imu.t, config_.init.duration_s));
+    }
     return;
   }
   history_.add_imu(imu);
