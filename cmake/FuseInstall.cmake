@@ -1,11 +1,11 @@
 # Installation of the vehicle deployment (component "runtime") and the .deb (CPack).
 #
 #   cmake --install BUILD --prefix /usr       binaries, systemd units, sysusers.d / sysctl.d
-#                                             drop-ins, the config under /etc/fuse
+#                                             drop-ins, a udev rule, the config under /etc/fuse
 #   cpack --config BUILD/CPackConfig.cmake    fuse_<version>_<arch>.deb (all components,
 #                                             including "query", the planner client library)
 #
-# Paths follow GNUInstallDirs; units, sysusers.d and sysctl.d go to lib/... under the prefix
+# Paths follow GNUInstallDirs; units, sysusers.d, sysctl.d and udev rules go to lib/... under the prefix
 # (systemd reads /usr/lib and /usr/local/lib). The config goes to /etc/fuse for the /usr prefix,
 # PREFIX/etc/fuse otherwise. The units name the binaries and the config by absolute path, so they
 # are written at install time from the prefix in force then (cpack installs with prefix /usr into
@@ -46,6 +46,8 @@ install(CODE "
        RENAME fuse.conf FILES \"${FUSE_DEPLOY_DIR}/fuse.sysusers\")
   file(INSTALL DESTINATION \"\${CMAKE_INSTALL_PREFIX}/lib/sysctl.d\" TYPE FILE
        RENAME 60-fuse-dds.conf FILES \"${FUSE_DEPLOY_DIR}/fuse-dds.sysctl\")
+  file(INSTALL DESTINATION \"\${CMAKE_INSTALL_PREFIX}/lib/udev/rules.d\" TYPE FILE
+       RENAME 60-fuse-cpu-latency.rules FILES \"${FUSE_DEPLOY_DIR}/fuse-cpu-latency.rules\")
   file(INSTALL DESTINATION \"\${FUSE_CONFIG_DIR}\" TYPE FILE
        RENAME fuse.yaml FILES \"${PROJECT_SOURCE_DIR}/config/mid360.yaml\")
   file(INSTALL DESTINATION \"\${FUSE_CONFIG_DIR}\" TYPE FILE FILES \"${FUSE_DEPLOY_DIR}/ingest.env\")

@@ -30,7 +30,7 @@ root="$scratch/root"
 dpkg -x "$deb" "$root"
 for f in usr/bin/fuse-map usr/bin/fuse-state usr/bin/fuse-update usr/bin/fuse-ingest usr/bin/fuse-query \
          usr/bin/fuse-map-ctl usr/lib/systemd/system/fuse.target usr/lib/systemd/system/fuse-map.service \
-         usr/lib/sysusers.d/fuse.conf usr/lib/sysctl.d/60-fuse-dds.conf etc/fuse/fuse.yaml etc/fuse/ingest.env \
+         usr/lib/sysusers.d/fuse.conf usr/lib/sysctl.d/60-fuse-dds.conf usr/lib/udev/rules.d/60-fuse-cpu-latency.rules etc/fuse/fuse.yaml etc/fuse/ingest.env \
          usr/include/fuse/query/client.hpp; do
   [ -e "$root/$f" ] || fail "/$f is not in the package"
 done

@@ -1,8 +1,10 @@
 // The services' scheduler slices (config section `scheduling`, fuse/core/scheduling.hpp):
 // fuse-state started as a process runs every one of its threads (the transport's among them,
 // all but the signal-waiting one) with scheduling.state_slice_us, keeps the kernel's default with 0, and refuses a value the
-// kernel would clamp or an unknown key, naming it. DDS domain 47.
+// kernel would clamp or an unknown key, naming it; it holds scheduling.cpu_latency_us while it
+// runs (fuse/core/cpu_latency.hpp). DDS domain 47.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <csignal>
 #include <filesystem>
@@ -10,6 +12,7 @@
 #include <string>
 #include <thread>
 
+#include "fuse/core/cpu_latency.hpp"
 #include "fuse/core/scheduling.hpp"
 #include "fuse/launch/process.hpp"
 #include "test_helpers.hpp"
@@ -73,7 +76,8 @@ TEST(ServiceScheduling, ABadSliceOrUnknownKeyStopsTheServiceNamingIt) {
   TempDir dir("fuse-scheduling-test");
   const std::pair<std::string, std::string> cases[] = {{"scheduling.state_slice_us=50", "scheduling.state_slice_us"},
                                                        {"scheduling.update_slice_us=200000", "scheduling.update_slice_us"},
-                                                       {"scheduling.planner_slice_us=100", "scheduling.planner_slice_us"}};
+                                                       {"scheduling.planner_slice_us=100", "scheduling.planner_slice_us"},
+                                                       {"scheduling.cpu_latency_us=-2", "scheduling.cpu_latency_us"}};
   int n = 0;
   for (const auto& [set, key] : cases) {
     const std::string log = "bad" + std::to_string(++n) + ".log";
@@ -83,6 +87,27 @@ TEST(ServiceScheduling, ABadSliceOrUnknownKeyStopsTheServiceNamingIt) {
     EXPECT_EQ(status->code, 2) << set;
     EXPECT_NE(read_text(dir.str(log)).find(key), std::string::npos) << read_text(dir.str(log));
   }
+}
+
+TEST(ServiceScheduling, FuseStateHoldsTheCpuLatencyBoundWhileItRuns) {
+  if (::access(kCpuLatencyDevice, W_OK) != 0) {
+    GTEST_SKIP() << kCpuLatencyDevice << " is not writable here (needs root or the deploy's udev rule)";
+  }
+  TempDir dir("fuse-scheduling-test");
+  Process p = start_state(dir, {"scheduling.cpu_latency_us=3"}, "latency.log");
+  ASSERT_TRUE(test::wait_until([&] { return read_text(dir.str("latency.log")).find("running") != std::string::npos; }, 20s))
+      << read_text(dir.str("latency.log"));
+  EXPECT_NE(read_text(dir.str("latency.log")).find("CPU wake-up latency bound 3 us held"), std::string::npos)
+      << read_text(dir.str("latency.log"));
+  const int in_force = cpu_latency_in_force_us();
+  EXPECT_GE(in_force, 0);
+  EXPECT_LE(in_force, 3);
+  p.terminate(10s);
+  // -1 asks for nothing.
+  Process q = start_state(dir, {"scheduling.cpu_latency_us=-1"}, "none.log");
+  ASSERT_TRUE(test::wait_until([&] { return read_text(dir.str("none.log")).find("running") != std::string::npos; }, 20s));
+  EXPECT_EQ(read_text(dir.str("none.log")).find("CPU wake-up latency"), std::string::npos) << read_text(dir.str("none.log"));
+  q.terminate(10s);
 }
 
 }  // namespace

@@ -5,10 +5,12 @@
 #include <atomic>
 #include <condition_variable>
 #include <mutex>
+#include <optional>
 #include <csignal>
 #include <stdexcept>
 #include <thread>
 
+#include "fuse/core/cpu_latency.hpp"
 #include "fuse/core/logging.hpp"
 #include "fuse/core/scheduling.hpp"
 
@@ -93,6 +95,17 @@ bool start_service(const std::string& name, int argc, char** argv, const std::se
       logger(name)->info("scheduler slice {} us (scheduling.*_slice_us)", slice_us);
     } else {
       logger(name)->warn("scheduler slice {} us not applied, running with the kernel's default: {}", slice_us, r.message);
+    }
+  }
+  if (config.scheduling.cpu_latency_us >= 0) {
+    // Held until the process exits (the kernel drops the request with the file).
+    static std::optional<CpuLatencyRequest> held;
+    held.emplace(config.scheduling.cpu_latency_us);
+    if (held->applied()) {
+      logger(name)->info("CPU wake-up latency bound {} us held (scheduling.cpu_latency_us)", config.scheduling.cpu_latency_us);
+    } else {
+      logger(name)->warn("CPU wake-up latency bound {} us not applied, idle CPUs may sleep deeply: {}",
+                         config.scheduling.cpu_latency_us, held->message());
     }
   }
   return true;

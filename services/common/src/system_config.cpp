@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "fuse/core/cpu_latency.hpp"
 #include "fuse/core/scheduling.hpp"
 
 namespace fuse::service {
@@ -48,6 +49,9 @@ int SchedulingConfig::slice_us(const std::string& service) const {
 void SchedulingConfig::load(ConfigNode& node) {
   node.get("ingest_slice_us", ingest_slice_us).get("state_slice_us", state_slice_us);
   node.get("update_slice_us", update_slice_us).get("map_slice_us", map_slice_us);
+  node.get("cpu_latency_us", cpu_latency_us);
+  node.check(cpu_latency_us >= -1 && cpu_latency_us <= kMaxCpuLatencyUs, "cpu_latency_us",
+             "must be -1 (no request) or in [0, " + std::to_string(kMaxCpuLatencyUs) + "] us");
   const std::string range = "must be 0 (kernel default) or in [" + std::to_string(kMinSchedulerSliceUs) + ", " +
                             std::to_string(kMaxSchedulerSliceUs) + "] us";
   node.check(valid_scheduler_slice(ingest_slice_us), "ingest_slice_us", range);

@@ -61,6 +61,10 @@ struct SchedulingConfig {
   int state_slice_us = 100;
   int update_slice_us = 0;
   int map_slice_us = 0;
+  /// CPU wake-up latency bound every service holds while it runs (cpu_latency.hpp), in us; -1
+  /// holds none. 0 keeps idle CPUs polling: a scan no longer meets a sleeping CPU with cold
+  /// caches, at the price of power.
+  int cpu_latency_us = -1;
   /// The slice for a service by its process name ("fuse-state"); 0 for other processes (tools).
   int slice_us(const std::string& service) const;
   void load(ConfigNode& node);
