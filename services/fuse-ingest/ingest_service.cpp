@@ -57,19 +57,20 @@ IngestService::IngestService(const SystemConfig& config, transport::Participant&
 bool IngestService::wait_for_pipeline() {
   // fuse-state must be past its recovery wait and fuse-update's replica synchronised, or the
   // first scans would be skipped for reasons that have nothing to do with the data.
-  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(config_.ingest.start_wait_s);
   const std::size_t readers = 1 + static_cast<std::size_t>(config_.ingest.extra_readers);
-  auto ready = [this, readers] {
+  return wait_alive(config_.ingest.start_wait_s, [this, readers] {
+    std::lock_guard<std::mutex> lock(mutex_);
     auto s = service_states_.find("fuse-state");
     auto u = service_states_.find("fuse-update");
     return s != service_states_.end() && s->second != "starting" && u != service_states_.end() &&
            u->second != "starting" && imu_.matched() >= readers && scans_.matched() >= readers;
-  };
+  });
+}
+
+bool IngestService::wait_alive(double seconds, const std::function<bool()>& done) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
   while (std::chrono::steady_clock::now() < end && !stop_requested()) {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (ready()) return true;
-    }
+    if (done()) return true;
     notifier().watchdog();
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
@@ -94,12 +95,10 @@ void IngestService::confirm_imu_readers() {
   // depth, so fuse-state would miss the stationary start it initialises from. (In real time the
   // depth holds seconds of IMU, longer than discovery takes.) The first sample's acknowledgment
   // shows that every matched reader has matched back.
-  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(config_.ingest.start_wait_s);
-  while (std::chrono::steady_clock::now() < end && !stop_requested()) {
-    if (imu_.wait_for_acknowledgments(std::chrono::milliseconds(50))) return;
-    notifier().watchdog();
+  if (wait_alive(config_.ingest.start_wait_s, [this] { return imu_.wait_for_acknowledgments(std::chrono::milliseconds(50)); }) ||
+      stop_requested()) {
+    return;
   }
-  if (stop_requested()) return;
   std::lock_guard<std::mutex> lock(mutex_);
   counters_.count("imu_unacknowledged", "the IMU readers did not acknowledge the first sample within "
                                         "ingest.start_wait_s: replaying anyway");

@@ -11,6 +11,7 @@
 #pragma once
 
 #include <condition_variable>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -40,6 +41,9 @@ class IngestService {
 
  private:
   bool wait_for_pipeline();
+  /// Polls `done` (10 ms apart, pinging the watchdog) for at most `seconds` or until a stop is
+  /// requested; true once it holds.
+  bool wait_alive(double seconds, const std::function<bool()>& done);
   /// Waits (ingest.start_wait_s) until every matched IMU reader has acknowledged what was sent.
   void confirm_imu_readers();
   /// Lockstep: waits until fuse-update has answered the scan ending at t_end.

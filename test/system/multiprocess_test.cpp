@@ -237,10 +237,10 @@ class MultiProcess : public ::testing::Test {
   }
   /// What fuse-state wrote; a run short of poses fails with the end of every service's log.
   static std::vector<StampedPose> trajectory_of(Pipeline& p) {
-    if (line_count(p.trajectory()) + 30 < single_->trajectory.size()) {
-      ADD_FAILURE() << line_count(p.trajectory()) << " poses written, fuse-run has " << single_->trajectory.size() << "\n"
-                    << p.diagnose();
-      if (line_count(p.trajectory()) == 0) return {};
+    const std::size_t written = line_count(p.trajectory());
+    if (written + 30 < single_->trajectory.size()) {
+      ADD_FAILURE() << written << " poses written, fuse-run has " << single_->trajectory.size() << "\n" << p.diagnose();
+      if (written == 0) return {};
     }
     return eval::read_tum(p.trajectory());
   }
