@@ -201,3 +201,80 @@ TEST(StateHistory, MeasuredSinceIsTheEndOfTheLatestLongStep) {
 
 }  // namespace
 }  // namespace fuse
+
+namespace fuse {
+namespace {
+
+/// A posterior at t: the history's own state there, moved (a LiDAR correction's stand-in).
+NavState moved(const StateHistory& h, double t, double dx) {
+  NavState x = h.query(t).x;
+  x.p.x() += dx;
+  x.v.y() += 0.1 * dx;
+  return x;
+}
+
+// Lazy re-propagation changes when entries are recomputed, never what they hold: a run of
+// corrections far in the past (fuse-state catching up on held scans), each followed by a
+// split at the next scan end, then new IMU samples, gives bit-identical entries whether every
+// step is read at once (eager, as in the single-process estimator) or only at the end.
+TEST(StateHistory, LazyRepropagationGivesTheEagerNumbers) {
+  constexpr int kSamples = 4000;  // 20 s
+  StateHistory eager = make_history(kSamples, 40.0);
+  StateHistory lazy = make_history(kSamples, 40.0);
+  for (int k = 0; k < 50; ++k) {
+    const double t = kT0 + 1.0 + 0.1 * k + 0.0123;  // scan ends between IMU samples
+    for (StateHistory* h : {&eager, &lazy}) {
+      ASSERT_TRUE(h->ensure_entry(t));
+      const NavState x = moved(*h, t, 0.01 * (k % 7));
+      h->correct(t, x, initial_P());
+    }
+    (void)eager.newest();  // eager: everything re-propagated at once
+    EXPECT_GT(lazy.stale_entries(), StateHistory::kEagerRefresh) << "the lazy tail is refreshed too early";
+  }
+  for (int k = 1; k <= 100; ++k) {
+    eager.add_imu(imu_at(kT0 + (kSamples + k) * kDt));
+    (void)eager.newest();
+    lazy.add_imu(imu_at(kT0 + (kSamples + k) * kDt));
+  }
+  ASSERT_EQ(eager.size(), lazy.size());
+  const auto a = eager.entries_between(eager.oldest_time(), eager.newest_time());
+  const auto b = lazy.entries_between(lazy.oldest_time(), lazy.newest_time());
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(lazy.stale_entries(), 0u);
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    ASSERT_EQ(a[i]->t, b[i]->t);
+    ASSERT_EQ(a[i]->x.p, b[i]->x.p) << "entry " << i;
+    ASSERT_EQ(a[i]->x.R, b[i]->x.R) << "entry " << i;
+    ASSERT_EQ(a[i]->x.v, b[i]->x.v) << "entry " << i;
+    ASSERT_EQ(a[i]->P, b[i]->P) << "entry " << i;
+  }
+}
+
+// Reading a time inside a stale tail refreshes up to that time only; trimming never loses the
+// base the stale entries are recomputed from.
+TEST(StateHistory, ReadsRefreshOnlyWhatTheyReadAndTrimKeepsTheBase) {
+  StateHistory h = make_history(2000, 5.0);  // 10 s of IMU, 5 s kept
+  const double t = h.newest_time() - 4.0;
+  ASSERT_TRUE(h.ensure_entry(t));
+  h.correct(t, moved(h, t, 0.5), initial_P());
+  const std::size_t stale = h.stale_entries();
+  EXPECT_GT(stale, 700u);
+  ASSERT_TRUE(h.query(t + 0.5).ok());
+  EXPECT_LT(h.stale_entries(), stale - 90);  // 0.5 s refreshed
+  EXPECT_GT(h.stale_entries(), stale - 110);
+  EXPECT_NEAR(h.fresh_time(), t + 0.5, 2 * kDt);
+  // New samples push the window forward past the correction while the tail is stale.
+  StateHistory reference = h;
+  (void)reference.newest();
+  for (int k = 1; k <= 1200; ++k) {
+    const ImuSample s = imu_at(h.newest_time() + kDt);
+    h.add_imu(s);
+    reference.add_imu(s);
+  }
+  EXPECT_EQ(h.size(), reference.size());
+  EXPECT_EQ(h.newest().x.p, reference.newest().x.p);
+  EXPECT_EQ(h.newest().P, reference.newest().P);
+}
+
+}  // namespace
+}  // namespace fuse

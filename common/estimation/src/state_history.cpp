@@ -40,23 +40,38 @@ NavState interpolate(const NavState& x0, const NavState& x1, double a) {
 void StateHistory::reset(double t, const NavState& x, const StateCovariance& P, const ImuSample& held) {
   entries_.clear();
   entries_.push_back({t, x, P, held.gyro, held.accel});
+  stale_from_ = entries_.size();
   last_correction_t_ = t;
 }
 
 void StateHistory::assign(const std::vector<Entry>& entries, double last_correction_t) {
   entries_.assign(entries.begin(), entries.end());
+  stale_from_ = entries_.size();
   last_correction_t_ = last_correction_t;
 }
 
+void StateHistory::refresh_to(std::size_t k) const {
+  for (; stale_from_ <= k && stale_from_ < entries_.size(); ++stale_from_) {
+    const Entry& prev = entries_[stale_from_ - 1];
+    Entry& cur = entries_[stale_from_];
+    cur.x = prev.x;
+    cur.P = prev.P;
+    propagate(cur.x, &cur.P, 0.5 * (prev.gyro + cur.gyro), 0.5 * (prev.accel + cur.accel), cur.t - prev.t, noise_);
+  }
+}
+
 void StateHistory::add_imu(const ImuSample& imu) {
-  Entry next = entries_.back();
-  const double dt = imu.t - next.t;
+  const double dt = imu.t - entries_.back().t;
   if (dt > kSameTime) {
-    propagate(next.x, &next.P, 0.5 * (next.gyro + imu.gyro), 0.5 * (next.accel + imu.accel), dt, noise_);
+    if (stale_entries() <= kEagerRefresh) refresh_to(entries_.size() - 1);
+    const bool fresh = stale_entries() == 0;
+    Entry next = entries_.back();  // a stale tail: the state is recomputed when read
+    if (fresh) propagate(next.x, &next.P, 0.5 * (next.gyro + imu.gyro), 0.5 * (next.accel + imu.accel), dt, noise_);
     next.t = imu.t;
     next.gyro = imu.gyro;
     next.accel = imu.accel;
     entries_.push_back(next);
+    if (fresh) stale_from_ = entries_.size();
     trim();
   } else {
     // Same instant as the newest entry (e.g. a scan end entry): only the held measurement changes.
@@ -75,34 +90,31 @@ std::size_t StateHistory::find_at_or_before(double t) const {
 bool StateHistory::ensure_entry(double t) {
   if (entries_.empty() || t < entries_.front().t - kSameTime) return false;
   const std::size_t i = find_at_or_before(t);
+  if (std::abs(entries_[i].t - t) <= kSameTime) return true;
+  refresh_to(i);
   const Entry& base = entries_[i];
-  if (std::abs(base.t - t) <= kSameTime) return true;
   // Split the step [base.t, next.t] at t: the first part with the held measurement.
   Entry mid = base;
   propagate(mid.x, &mid.P, base.gyro, base.accel, t - base.t, noise_);
   mid.t = t;
+  const bool was_fresh = stale_entries() == 0;
   entries_.insert(entries_.begin() + static_cast<std::ptrdiff_t>(i) + 1, mid);
-  // The step after the split now starts at t with the same held input: re-propagate.
+  // The entries after the split moved by one; the step after it now starts at t with the same
+  // held input: re-propagate from there.
+  stale_from_ = was_fresh ? entries_.size() : stale_from_ + 1;
   repropagate_from(i + 1);
+  if (stale_entries() <= kEagerRefresh) refresh_to(entries_.size() - 1);
   return true;
 }
 
 void StateHistory::correct(double t, const NavState& x, const StateCovariance& P) {
   const std::size_t i = find_at_or_before(t);
+  refresh_to(i);  // what lies before the correction must not be recomputed over it later
   entries_[i].x = x;
   entries_[i].P = P;
   repropagate_from(i);
+  if (stale_entries() <= kEagerRefresh) refresh_to(entries_.size() - 1);
   last_correction_t_ = std::max(last_correction_t_, t);
-}
-
-void StateHistory::repropagate_from(std::size_t i) {
-  for (std::size_t k = i + 1; k < entries_.size(); ++k) {
-    const Entry& prev = entries_[k - 1];
-    Entry& cur = entries_[k];
-    cur.x = prev.x;
-    cur.P = prev.P;
-    propagate(cur.x, &cur.P, 0.5 * (prev.gyro + cur.gyro), 0.5 * (prev.accel + cur.accel), cur.t - prev.t, noise_);
-  }
 }
 
 StateQuery StateHistory::query(double t) const {
@@ -119,6 +131,7 @@ StateQuery StateHistory::query(double t) const {
     return q;
   }
   const std::size_t i = find_at_or_before(t);
+  refresh_to(i + 1);
   const Entry& e0 = entries_[i];
   if (i + 1 >= entries_.size() || std::abs(e0.t - t) <= kSameTime) {
     q.x = e0.x;
@@ -146,6 +159,8 @@ double StateHistory::measured_since(double t0, double t1, double max_step) const
 
 std::vector<const StateHistory::Entry*> StateHistory::entries_between(double t0, double t1) const {
   std::vector<const Entry*> out;
+  if (entries_.empty()) return out;
+  if (t1 >= entries_.front().t - kSameTime) refresh_to(find_at_or_before(t1));
   for (const Entry& e : entries_) {
     if (e.t >= t0 - kSameTime && e.t <= t1 + kSameTime) out.push_back(&e);
   }
@@ -154,7 +169,12 @@ std::vector<const StateHistory::Entry*> StateHistory::entries_between(double t0,
 
 void StateHistory::trim() {
   const double keep_from = entries_.back().t - config_.length_s;
-  while (entries_.size() > 2 && entries_[1].t < keep_from) entries_.pop_front();
+  std::size_t n = 0;  // entries to drop from the front
+  while (entries_.size() - n > 2 && entries_[n + 1].t < keep_from) ++n;
+  if (n == 0) return;
+  refresh_to(n);  // the new oldest entry must be up to date: nothing before it is kept
+  entries_.erase(entries_.begin(), entries_.begin() + static_cast<std::ptrdiff_t>(n));
+  stale_from_ -= n;
 }
 
 }  // namespace fuse

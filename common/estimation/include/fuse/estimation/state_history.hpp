@@ -1,8 +1,16 @@
 // Temporal role (DESIGN §1): a bounded time history of (t, x, P) written by IMU propagation.
 // Any time it covers can be queried (interpolated on the manifold); a posterior at a past time
 // replaces the entry there and every later entry is re-propagated from the stored IMU samples.
+//
+// Re-propagation is lazy: a correction (or a split) marks the entries after it stale, and they
+// are recomputed, in order and by the same formula, when something reads them. The numbers are
+// the same as if it were done at once; what changes is that a run of corrections far in the past
+// (fuse-state catching up on scans held during its restart) re-propagates the tail once, not once
+// per correction (~60 ms for 40 s of 200 Hz IMU). New IMU samples are propagated at once while
+// the stale tail is short (kEagerRefresh entries: the normal case) and appended stale otherwise.
 #pragma once
 
+#include <algorithm>
 #include <deque>
 #include <vector>
 
@@ -58,6 +66,7 @@ class StateHistory {
   /// Replaces the newest entry's state and covariance without making it a correction (a data gap's
   /// coasted state, its covariance grown by the unmodelled motion).
   void amend_newest(const NavState& x, const StateCovariance& P) {
+    refresh_to(entries_.size() - 1);
     entries_.back().x = x;
     entries_.back().P = P;
   }
@@ -66,6 +75,8 @@ class StateHistory {
   bool ensure_entry(double t);
   /// Replaces the entry at t (which must exist, see ensure_entry) and re-propagates later entries.
   void correct(double t, const NavState& x, const StateCovariance& P);
+  /// Stale entries are recomputed when read; below this many, new samples refresh them at once.
+  static constexpr std::size_t kEagerRefresh = 64;
 
   StateQuery query(double t) const;
   /// The end of the latest step between consecutive entries that is longer than max_step (coasted
@@ -75,20 +86,32 @@ class StateHistory {
   /// Entries with t0 ≤ t ≤ t1 (the caller interpolates between them).
   std::vector<const Entry*> entries_between(double t0, double t1) const;
 
-  const Entry& newest() const { return entries_.back(); }
+  const Entry& newest() const {
+    refresh_to(entries_.size() - 1);
+    return entries_.back();
+  }
+  double newest_time() const { return entries_.back().t; }
   double oldest_time() const { return entries_.front().t; }
   double last_correction_time() const { return last_correction_t_; }
   std::size_t size() const { return entries_.size(); }
+  /// Entries not yet re-propagated after a past correction (0 in the normal, eager case).
+  std::size_t stale_entries() const { return entries_.size() - stale_from_; }
+  /// Time of the newest entry that is up to date (what can be read without re-propagating).
+  double fresh_time() const { return entries_[stale_from_ - 1].t; }
 
  private:
   std::size_t find_at_or_before(double t) const;
-  /// Recomputes every entry after index i from entry i and the stored IMU measurements.
-  void repropagate_from(std::size_t i);
+  /// Marks every entry after index i stale (to be recomputed from entry i and the stored IMU).
+  void repropagate_from(std::size_t i) { stale_from_ = std::min(stale_from_, i + 1); }
+  /// Recomputes the stale entries up to index k (inclusive).
+  void refresh_to(std::size_t k) const;
   void trim();
 
   StateHistoryConfig config_;
   ImuNoiseConfig noise_;
-  std::deque<Entry> entries_;
+  // Mutable: reading refreshes stale entries (logically const).
+  mutable std::deque<Entry> entries_;
+  mutable std::size_t stale_from_ = 1;  ///< index of the first stale entry; entries_.size() when none
   double last_correction_t_ = -1.0;
 };
 
