@@ -58,6 +58,8 @@ TEST(SimCli, ParsesValidArguments) {
   EXPECT_EQ(parse_cli({"--scenario", "room", "--seed", "7", "--world-seed", "3", "--out", "x"}).options.world_seed,
             3u);
   EXPECT_TRUE(parse_cli({"--help"}).help);
+  EXPECT_EQ(parse_cli({"--scenario", "corridor", "--seed", "1", "--laps", "3", "--out", "x"}).options.laps, 3);
+  EXPECT_EQ(c.options.laps, 1);
 }
 
 TEST(SimCli, RejectsBadArguments) {
@@ -79,6 +81,9 @@ TEST(SimCli, RejectsBadArguments) {
       {"--scenario", "corridor", "--seed", "1", "--out"},                       // missing value
       {"--scenario", "corridor", "--seed", "1", "--seed", "2", "--out", "x"},   // repeated
       {"--scenario", "corridor", "--seed", "1", "--out", "x", "--verbose"},     // unknown
+      {"--scenario", "corridor", "--seed", "1", "--laps", "0", "--out", "x"},
+      {"--scenario", "corridor", "--seed", "1", "--laps", "101", "--out", "x"},
+      {"--scenario", "room", "--seed", "1", "--laps", "2", "--out", "x"},       // not a loop
   };
   for (const auto& args : bad) EXPECT_THROW(parse_cli(args), CliError) << ::testing::PrintToString(args);
 }

@@ -92,6 +92,22 @@ TEST(SimTrajectory, DerivativesMatchFiniteDifferencesInEveryScenario) {
   }
 }
 
+// The corridor walked twice: twice the path through the same world, and half-way (one lap on)
+// the walker passes the start again.
+TEST(SimTrajectory, CorridorLapsGoRoundTheSameLoopAgain) {
+  const Scenario one = make_scenario("corridor", 2, 2);
+  const Scenario two = make_scenario("corridor", 2, 2, kStartTime, 2);
+  const double length = one.trajectory->path().arc_length();
+  EXPECT_NEAR(two.trajectory->path().arc_length(), 2.0 * length, 1e-6 * length);
+  const Eigen::Vector3d start = two.trajectory->state(two.trajectory->t_begin()).p;
+  double closest = 1e9;
+  for (double t = two.trajectory->t_begin() + 60.0; t < two.trajectory->t_end() - 60.0; t += 0.05) {
+    closest = std::min(closest, (two.trajectory->state(t).p - start).norm());
+  }
+  EXPECT_LT(closest, 0.1) << "the second lap passes the start";
+  EXPECT_THROW(make_scenario("room", 1, 1, kStartTime, 2), std::invalid_argument);
+}
+
 TEST(SimTrajectory, StaticStartAndEndAtRest) {
   for (const std::string& name : scenario_names()) {
     const Scenario s = make_scenario(name, 1, 1);

@@ -14,6 +14,7 @@ namespace fuse::sim {
 namespace {
 
 constexpr double kMaxDurationS = 1e5;  // sanity bound for --duration
+constexpr std::uint64_t kMaxLaps = 100;  // sanity bound for --laps
 constexpr double kMinDurationS = 0.1;  // one LiDAR frame
 
 std::uint64_t parse_u64(const std::string& option, const std::string& text) {
@@ -41,7 +42,7 @@ double parse_duration(const std::string& text) {
 }  // namespace
 
 std::string usage() {
-  return "usage: fuse-sim --scenario NAME --seed N [--world-seed M] [--duration S]\n"
+  return "usage: fuse-sim --scenario NAME --seed N [--world-seed M] [--duration S] [--laps N]\n"
          "                [--lidar mid360|spinning32] [--format mcap|seqdir] --out DIR\n"
          "\n"
          "Simulates a LiDAR + IMU sequence with exact ground truth.\n"
@@ -49,6 +50,7 @@ std::string usage() {
          "  --seed N          noise and motion variations (non-negative integer)\n"
          "  --world-seed M    world layout (default: N)\n"
          "  --duration S      cut the scenario short after S seconds\n"
+         "  --laps N          corridor: walk round the loop N times (default 1; e.g. a soak test)\n"
          "  --lidar MODEL     mid360 (default) or spinning32\n"
          "  --format F        mcap (DIR/recording.mcap, default) or seqdir (sequence directory in DIR)\n"
          "  --out DIR         output directory (created if missing); also gets groundtruth.tum\n"
@@ -67,7 +69,7 @@ CliCommand parse_cli(const std::vector<std::string>& args) {
       return cmd;
     }
     static const std::set<std::string> kValued = {"--scenario", "--seed",   "--world-seed", "--duration",
-                                                  "--lidar",    "--format", "--out"};
+                                                  "--lidar",    "--format", "--out",        "--laps"};
     if (!kValued.count(a)) throw CliError("unknown argument '" + a + "'");
     if (!seen.insert(a).second) throw CliError(a + " given more than once");
     if (i + 1 >= args.size()) throw CliError(a + " needs a value");
@@ -84,6 +86,10 @@ CliCommand parse_cli(const std::vector<std::string>& args) {
       world_seed_given = true;
     } else if (a == "--duration") {
       cmd.options.duration_s = parse_duration(v);
+    } else if (a == "--laps") {
+      const std::uint64_t laps = parse_u64(a, v);
+      if (laps < 1 || laps > kMaxLaps) throw CliError("--laps: must be between 1 and " + std::to_string(kMaxLaps));
+      cmd.options.laps = static_cast<int>(laps);
     } else if (a == "--lidar") {
       if (v != "mid360" && v != "spinning32")
         throw CliError("--lidar: unknown model '" + v + "' (expected mid360 or spinning32)");
@@ -104,6 +110,9 @@ CliCommand parse_cli(const std::vector<std::string>& args) {
   if (!seen.count("--seed")) throw CliError("missing --seed");
   if (cmd.options.out_dir.empty()) throw CliError("missing --out");
   if (!world_seed_given) cmd.options.world_seed = cmd.options.seed;
+  if (cmd.options.laps > 1 && cmd.options.scenario != "corridor") {
+    throw CliError("--laps: only the corridor's path is a loop");
+  }
   return cmd;
 }
 

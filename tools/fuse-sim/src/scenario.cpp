@@ -22,13 +22,17 @@ const std::vector<std::string>& scenario_names() {
   return names;
 }
 
-Scenario make_scenario(const std::string& name, std::uint64_t world_seed, std::uint64_t seed, double t0) {
+Scenario make_scenario(const std::string& name, std::uint64_t world_seed, std::uint64_t seed, double t0, int laps) {
   Scenario s;
   s.name = name;
   Rng world_rng(world_seed, Stream::kWorld);
   Rng motion_rng(seed, Stream::kMotion);
+  if (laps < 1) throw std::invalid_argument("laps must be at least 1");
+  if (laps > 1 && name != "corridor") {
+    throw std::invalid_argument("laps: only the corridor's path is a loop ('" + name + "' is walked once)");
+  }
   if (name == "corridor")
-    detail::build_corridor(s, world_rng, motion_rng, t0);
+    detail::build_corridor(s, world_rng, motion_rng, t0, laps);
   else if (name == "stairs")
     detail::build_stairs(s, world_rng, motion_rng, t0);
   else if (name == "room")

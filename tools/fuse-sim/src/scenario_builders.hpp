@@ -29,7 +29,8 @@ Material material(Rng& rng, SurfaceId id, double base, double jitter = 0.05);
 /// Adds the box spanning the two corners (any order).
 void add_box(World& world, const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Material& m);
 
-void build_corridor(Scenario& s, Rng& world_rng, Rng& motion_rng, double t0);
+/// laps: times round the loop (a longer walk through the same world, e.g. for a soak test).
+void build_corridor(Scenario& s, Rng& world_rng, Rng& motion_rng, double t0, int laps = 1);
 void build_stairs(Scenario& s, Rng& world_rng, Rng& motion_rng, double t0);
 void build_room(Scenario& s, Rng& world_rng, Rng& motion_rng, double t0);
 void build_campus(Scenario& s, Rng& world_rng, Rng& motion_rng, double t0);

@@ -102,7 +102,7 @@ Feature draw_feature(Rng& rng, double center) {
 
 }  // namespace
 
-void build_corridor(Scenario& s, Rng& rng, Rng& motion_rng, double t0) {
+void build_corridor(Scenario& s, Rng& rng, Rng& motion_rng, double t0, int laps) {
   const double hw = kHalfWidth, t = kWallThickness;
   // Outer and inner walls of each side of the loop; the corridor interior is between them.
   struct Side {
@@ -132,12 +132,18 @@ void build_corridor(Scenario& s, Rng& rng, Rng& motion_rng, double t0) {
   s.world.add(Plane{Eigen::Vector3d::UnitZ(), kHeight, material(rng, kCeiling, 0.7)});
 
   const double z = kCarryHeight;
-  const Path path = make_rounded_polyline({{{0.5 * kLoopX, 0.0, z}, 0.0},
-                                           {{kLoopX, 0.0, z}, kCornerRadius},
-                                           {{kLoopX, kLoopY, z}, kCornerRadius},
-                                           {{0.0, kLoopY, z}, kCornerRadius},
-                                           {{0.0, 0.0, z}, kCornerRadius},
-                                           {{0.5 * kLoopX, 0.0, z}, 0.0}});
+  // Round the loop `laps` times from the middle of the south side, passing straight through it
+  // between laps.
+  std::vector<Waypoint> waypoints = {{{0.5 * kLoopX, 0.0, z}, 0.0}};
+  for (int lap = 0; lap < laps; ++lap) {
+    const double through = lap + 1 < laps ? kCornerRadius : 0.0;  // collinear between laps: no corner
+    waypoints.insert(waypoints.end(), {{{kLoopX, 0.0, z}, kCornerRadius},
+                                       {{kLoopX, kLoopY, z}, kCornerRadius},
+                                       {{0.0, kLoopY, z}, kCornerRadius},
+                                       {{0.0, 0.0, z}, kCornerRadius},
+                                       {{0.5 * kLoopX, 0.0, z}, through}});
+  }
+  const Path path = make_rounded_polyline(waypoints);
   TimeLawConfig law;
   law.rate = motion_rng.uniform(kWalkRateMin, kWalkRateMax);
   const MotionConfig motion = walking_motion(motion_rng);

@@ -36,8 +36,9 @@ struct Scenario {
 /// The accepted names: corridor, stairs, room, campus.
 const std::vector<std::string>& scenario_names();
 
-/// Builds a scenario (world built, ready to cast). Throws std::invalid_argument on an unknown name.
+/// Builds a scenario (world built, ready to cast). Throws std::invalid_argument on an unknown name
+/// or on laps > 1 for a scenario whose path is not a loop (only the corridor's is).
 Scenario make_scenario(const std::string& name, std::uint64_t world_seed, std::uint64_t seed,
-                       double t0 = kStartTime);
+                       double t0 = kStartTime, int laps = 1);
 
 }  // namespace fuse::sim

@@ -16,6 +16,7 @@ struct SimOptions {
   std::uint64_t seed = 0;
   std::uint64_t world_seed = 0;
   std::optional<double> duration_s;  ///< cut the scenario short (never lengthens it)
+  int laps = 1;                      ///< times round a loop (corridor only)
   std::string lidar = "mid360";
   OutputFormat format = OutputFormat::kMcap;
   std::string out_dir;
