@@ -91,6 +91,29 @@ TEST_F(Supervisor, GivesUpAfterMaxRestartsWithAGrowingBackoff) {
   EXPECT_EQ(s.report("crasher").last_exit->code, 1);
 }
 
+TEST_F(Supervisor, AHealthyRunStartsTheRestartCountAfresh) {
+  SupervisorOptions o = options();  // at most 3 early deaths in a row
+  o.healthy_after = 300ms;
+  ProcessSupervisor s(o);
+  // Lives 0.4 s (healthy) each time, then dies: ten deaths are ten fresh starts, never given up.
+  s.start(spec("soak", "echo up; sleep 0.4; exit 1", true));
+  ASSERT_TRUE(poll_until(s, [&] { return s.restarts("soak") >= 6; }, 20s));
+  EXPECT_NE(s.state("soak"), ServiceState::failed) << s.report("soak").failure;
+  EXPECT_LE(s.report("soak").early_deaths, 1);
+}
+
+TEST_F(Supervisor, UsageAndInputErrorsAreNotRestarted) {
+  ProcessSupervisor s(options());
+  s.start(spec("config", "echo 'bad key'; exit 2", true));
+  s.start(spec("input", "echo 'cannot open input'; exit 4", true));
+  ASSERT_TRUE(poll_until(s, [&] { return s.state("config") == ServiceState::failed && s.state("input") == ServiceState::failed; },
+                         5s));
+  EXPECT_EQ(s.restarts("config"), 0);
+  EXPECT_EQ(s.restarts("input"), 0);
+  EXPECT_NE(s.report("config").failure.find("restarting cannot fix it"), std::string::npos) << s.report("config").failure;
+  EXPECT_NE(s.report("input").failure.find("input cannot be read"), std::string::npos) << s.report("input").failure;
+}
+
 TEST_F(Supervisor, ExitZeroIsCompletionWhenTheSpecSaysSo) {
   ProcessSupervisor s(options());
   ServiceSpec ingest = spec("ingest", "sleep 0.1; exit 0", true);

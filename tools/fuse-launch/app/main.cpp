@@ -5,8 +5,10 @@
 //               [--bin-dir DIR] [--restart]
 //
 // Starts fuse-map, fuse-state and fuse-update, then fuse-ingest; when the replay is done it stops
-// the others in reverse order. SIGINT/SIGTERM stop everything the same way.
-// Exit codes: 0 every service did its part and stopped cleanly, 1 a service failed, 2 usage.
+// the others in reverse order. SIGINT/SIGTERM stop everything the same way. Meanwhile it watches
+// the bus (RunMonitor) and prints a summary of restarts, gaps, counters and anything lost.
+// Exit codes: 0 every service did its part and nothing was lost (data gaps are not losses),
+// 1 a service failed, 2 usage or config, 3 the run lost something (named in the summary).
 #include <csignal>
 #include <filesystem>
 #include <iostream>
@@ -14,9 +16,10 @@
 #include "arguments.hpp"
 #include "fuse/core/logging.hpp"
 #include "fuse/launch/launcher.hpp"
+#include "run_monitor.hpp"
 
 namespace {
-constexpr int kExitOk = 0, kExitFailed = 1, kExitUsage = 2;
+constexpr int kExitOk = 0, kExitFailed = 1, kExitUsage = 2, kExitLost = 3;
 /// Lead from starting fuse-ingest to the replay's first sample (its --start-wall, realtime).
 constexpr double kReplayLeadSeconds = 1.0;
 
@@ -47,6 +50,7 @@ int main(int argc, char** argv) {
   using namespace fuse;
   launch_tool::Arguments args;
   launch::LaunchPlan plan;
+  service::SystemConfig config;
   try {
     args = launch_tool::parse_arguments(std::vector<std::string>(argv + 1, argv + argc));
     if (args.help) {
@@ -61,6 +65,12 @@ int main(int argc, char** argv) {
     std::cerr << "fuse-launch: " << e.what() << "\n" << launch_tool::usage();
     return kExitUsage;
   }
+  try {  // the services' own config, checked before any of them starts (they would refuse it too)
+    config = service::load_system_config(args.launch.config_file, launch::service_overrides(args.launch));
+  } catch (const std::exception& e) {
+    std::cerr << "fuse-launch: config error: " << e.what() << "\n";
+    return kExitUsage;
+  }
   install_signal_handlers();
   launch::LaunchOutcome outcome;
   try {
@@ -68,11 +78,16 @@ int main(int argc, char** argv) {
     options.log_dir = plan.log_dir;
     options.max_restarts = args.max_restarts;
     launch::ProcessSupervisor supervisor(options);
-    outcome = launch::run_launch(plan, supervisor, args.timing, [] { return g_stop != 0; });
+    launch_tool::RunMonitor monitor(config, plan.trajectory_file, plan.map_dir);
+    outcome = launch::run_launch(plan, supervisor, args.timing, [] { return g_stop != 0; }, [&monitor] { monitor.poll(); });
+    const launch_tool::RunMonitor::Verdict verdict = monitor.finish(outcome.reports);
+    outcome.losses = verdict.losses;
+    std::cout << verdict.summary;
   } catch (const std::exception& e) {  // e.g. the log directory cannot be created
     logger("launch")->error("{}", e.what());
     return kExitFailed;
   }
   std::cout << launch::summarize(outcome);
-  return outcome.success ? kExitOk : kExitFailed;
+  if (!outcome.success) return kExitFailed;
+  return outcome.losses.empty() ? kExitOk : kExitLost;
 }

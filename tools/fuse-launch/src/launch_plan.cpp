@@ -25,9 +25,7 @@ std::string path_in(const std::string& dir, const std::string& name) {
 /// The part every service gets: the config and the overrides, the launcher's own last (they win).
 std::vector<std::string> common_arguments(const LaunchOptions& o) {
   std::vector<std::string> args{"--config", o.config_file};
-  for (const auto& s : o.overrides) args.insert(args.end(), {"--set", s});
-  if (o.domain_id) args.insert(args.end(), {"--set", "transport.domain_id=" + std::to_string(*o.domain_id)});
-  if (!o.vendor.empty()) args.insert(args.end(), {"--set", "transport.vendor=" + o.vendor});
+  for (const auto& s : service_overrides(o)) args.insert(args.end(), {"--set", s});
   return args;
 }
 
@@ -43,14 +41,24 @@ ServiceSpec service(const LaunchOptions& o, const std::string& name, const std::
 }
 }  // namespace
 
+std::vector<std::string> service_overrides(const LaunchOptions& o) {
+  std::vector<std::string> out = o.overrides;
+  if (o.domain_id) out.push_back("transport.domain_id=" + std::to_string(*o.domain_id));
+  if (!o.vendor.empty()) out.push_back("transport.vendor=" + o.vendor);
+  return out;
+}
+
 LaunchPlan make_launch_plan(const LaunchOptions& o, double start_wall) {
   LaunchPlan plan;
   plan.log_dir = path_in(o.out_dir, "logs");
   const std::string map_dir = o.map_dir.empty() ? path_in(o.out_dir, "map") : o.map_dir;
+  plan.map_dir = map_dir;
+  plan.trajectory_file = path_in(o.out_dir, "trajectory.tum");
   plan.services.push_back(service(o, "fuse-map", {"--map-dir", map_dir}));
   // As fuse-run does, the recording's own extrinsic (when it has one) overrides the config's.
   plan.services.push_back(service(o, "fuse-state", {"--trajectory", path_in(o.out_dir, "trajectory.tum"),
-                                                    "--calibration-from", o.input}));
+                                                    "--calibration-from", o.input, "--set",
+                                                    "state.checkpoint_file=" + path_in(o.out_dir, "state.checkpoint")}));
   plan.services.push_back(service(o, "fuse-update", {}));
   std::vector<std::string> ingest{"--input", o.input, "--mode", o.mode};
   if (o.rate) ingest.insert(ingest.end(), {"--rate", number(*o.rate)});

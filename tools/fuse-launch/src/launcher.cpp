@@ -1,6 +1,7 @@
 #include "fuse/launch/launcher.hpp"
 
 #include <algorithm>
+#include <fstream>
 #include <sstream>
 #include <thread>
 
@@ -14,9 +15,11 @@ enum class Watch { elapsed, driver_done, failed, stop_requested };
 /// Polls the supervisor until `until` (or forever), returning early when a service failed, the
 /// driver finished, or a stop was requested.
 Watch watch(ProcessSupervisor& supervisor, const std::string& driver, const LaunchTiming& timing,
-            const std::function<bool()>& stop_requested, std::chrono::steady_clock::time_point until) {
+            const std::function<bool()>& stop_requested, const std::function<void()>& tick,
+            std::chrono::steady_clock::time_point until) {
   for (;;) {
     supervisor.poll();
+    if (tick) tick();
     if (stop_requested()) return Watch::stop_requested;
     for (const auto& name : supervisor.names()) {
       if (supervisor.state(name) == ServiceState::failed) return Watch::failed;
@@ -30,7 +33,10 @@ Watch watch(ProcessSupervisor& supervisor, const std::string& driver, const Laun
 /// Why a service's final report makes the run a failure; empty when it does not.
 std::string failure_of(const ServiceReport& r) {
   const std::string exit = r.last_exit ? r.last_exit->describe() : "no exit status";
-  if (r.state == ServiceState::failed) return r.name + " failed (" + exit + ")";
+  if (r.state == ServiceState::failed) {
+    const std::string error = last_error_line(r.log_path);
+    return r.name + " failed (" + (r.failure.empty() ? exit : r.failure) + ")" + (error.empty() ? "" : ": " + error);
+  }
   if (r.state == ServiceState::stopped && r.escalated) return r.name + " ignored SIGTERM and was killed";
   if (r.state == ServiceState::stopped && r.last_exit && !r.last_exit->success()) {
     return r.name + " did not stop cleanly (" + exit + ")";
@@ -40,17 +46,17 @@ std::string failure_of(const ServiceReport& r) {
 }  // namespace
 
 LaunchOutcome run_launch(const LaunchPlan& plan, ProcessSupervisor& supervisor, const LaunchTiming& timing,
-                         const std::function<bool()>& stop_requested) {
+                         const std::function<bool()>& stop_requested, const std::function<void()>& tick) {
   LaunchOutcome out;
   auto log = logger("launch");
   const auto forever = std::chrono::steady_clock::time_point::max();
   const std::string driver = plan.services.empty() ? "" : plan.services.back().name;
   try {
     for (std::size_t i = 0; i + 1 < plan.services.size(); ++i) supervisor.start(plan.services[i]);
-    Watch w = watch(supervisor, "", timing, stop_requested, std::chrono::steady_clock::now() + timing.settle);
+    Watch w = watch(supervisor, "", timing, stop_requested, tick, std::chrono::steady_clock::now() + timing.settle);
     if (w == Watch::elapsed && !driver.empty()) {
       supervisor.start(plan.services.back());
-      w = watch(supervisor, driver, timing, stop_requested, forever);
+      w = watch(supervisor, driver, timing, stop_requested, tick, forever);
     }
     out.interrupted = (w == Watch::stop_requested);
     if (out.interrupted) log->info("stop requested: stopping the services");
@@ -79,9 +85,25 @@ std::string summarize(const LaunchOutcome& outcome) {
     os << r.name << ": " << to_string(r.state) << ", " << (r.last_exit ? r.last_exit->describe() : "running")
        << (r.escalated ? " after SIGKILL" : "") << ", restarts " << r.restarts << ", log " << r.log_path << "\n";
   }
-  os << (outcome.success ? "result: ok" : "result: failed: " + outcome.failure)
-     << (outcome.interrupted ? " (interrupted)" : "") << "\n";
+  if (!outcome.success) {
+    os << "result: failed: " << outcome.failure;
+  } else if (!outcome.losses.empty()) {
+    os << "result: lost: ";
+    for (std::size_t i = 0; i < outcome.losses.size(); ++i) os << (i ? "; " : "") << outcome.losses[i];
+  } else {
+    os << "result: ok";
+  }
+  os << (outcome.interrupted ? " (interrupted)" : "") << "\n";
   return os.str();
+}
+
+std::string last_error_line(const std::string& log_path) {
+  std::ifstream log(log_path);
+  std::string last;
+  for (std::string line; std::getline(log, line);) {
+    if (line.find("[error]") != std::string::npos || line.find("[critical]") != std::string::npos) last = line;
+  }
+  return last;
 }
 
 }  // namespace fuse::launch

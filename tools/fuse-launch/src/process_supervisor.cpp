@@ -61,6 +61,7 @@ void ProcessSupervisor::start(const ServiceSpec& spec) {
 void ProcessSupervisor::spawn(Service& s) {
   log_marker(s.report.log_path, "start " + std::to_string(s.report.restarts + 1) + ": " + command_line(s.spec.argv));
   s.process = Process::spawn(s.spec.argv, s.report.log_path);
+  s.started_at = std::chrono::steady_clock::now();
   s.report.state = ServiceState::running;
   logger("launch")->info("{} started (pid {}), log {}", s.spec.name, s.process->pid(), s.report.log_path);
 }
@@ -74,19 +75,34 @@ void ProcessSupervisor::on_exit(Service& s, const ExitStatus& status) {
   auto log = logger("launch");
   s.process.reset();
   s.report.last_exit = status;
+  const auto now = std::chrono::steady_clock::now();
+  // A run that lasted healthy_after was not part of a crash loop: backoff and count start over.
+  if (now - s.started_at >= options_.healthy_after) s.report.early_deaths = 0;
+  const bool fixable = status.signaled || std::find(options_.never_restart.begin(), options_.never_restart.end(),
+                                                    status.code) == options_.never_restart.end();
   if (s.spec.exit_zero_is_done && status.success()) {
     s.report.state = ServiceState::done;
     log->info("{} finished", s.spec.name);
-  } else if (s.spec.restart && s.report.restarts < options_.max_restarts) {
-    const auto backoff = std::min(options_.max_backoff, options_.restart_backoff * (1 << std::min(s.report.restarts, 16)));
+  } else if (s.spec.restart && fixable && s.report.early_deaths < options_.max_restarts) {
+    const auto backoff =
+        std::min(options_.max_backoff, options_.restart_backoff * (1 << std::min(s.report.early_deaths, 16)));
+    ++s.report.early_deaths;
     s.report.state = ServiceState::restarting;
-    s.restart_at = std::chrono::steady_clock::now() + backoff;
-    log->warn("{} died unexpectedly ({}); restart {} of {} in {} ms", s.spec.name, status.describe(),
-              s.report.restarts + 1, options_.max_restarts, backoff.count());
+    s.restart_at = now + backoff;
+    log->warn("{} died unexpectedly ({}); restart in {} ms ({} of at most {} in a row)", s.spec.name, status.describe(),
+              backoff.count(), s.report.early_deaths, options_.max_restarts);
   } else {
     s.report.state = ServiceState::failed;
-    log->error("{} failed ({}){}", s.spec.name, status.describe(),
-               s.spec.restart ? ", no restarts left" : "");
+    if (!s.spec.restart) {
+      s.report.failure = status.describe();
+    } else if (!fixable) {
+      s.report.failure = status.describe() + (status.code == kExitUsage ? " (usage or config error)" : " (input cannot be read)") +
+                         ": restarting cannot fix it";
+    } else {
+      s.report.failure = status.describe() + ": " + std::to_string(s.report.early_deaths) +
+                         " early deaths in a row, no restarts left";
+    }
+    log->error("{} failed: {}", s.spec.name, s.report.failure);
   }
 }
 

@@ -27,7 +27,12 @@ struct LaunchOptions {
 struct LaunchPlan {
   std::vector<ServiceSpec> services;  ///< in start order; the last one is the driver
   std::string log_dir;
+  std::string trajectory_file;  ///< fuse-state's
+  std::string map_dir;          ///< fuse-map's
 };
+
+/// The --set overrides every service gets (the options' own, then domain and vendor).
+std::vector<std::string> service_overrides(const LaunchOptions& options);
 
 /// The services' command lines. In realtime mode fuse-ingest gets --start-wall start_wall (Unix
 /// seconds): a restarted replay then resumes where the clock is instead of at the beginning,

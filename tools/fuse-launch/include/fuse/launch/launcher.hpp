@@ -24,14 +24,19 @@ struct LaunchOutcome {
   bool interrupted = false;  ///< stop_requested() ended the run
   std::string failure;       ///< the first reason it is not a success
   std::vector<ServiceReport> reports;  ///< in start order
+  std::vector<std::string> losses;     ///< set by the caller: what the run lost although it ran
 };
 
 /// Runs the plan under `supervisor` (whose log_dir should be plan.log_dir). stop_requested is
-/// polled; true stops everything cleanly.
+/// polled; true stops everything cleanly. `tick`, when set, runs at every poll.
 LaunchOutcome run_launch(const LaunchPlan& plan, ProcessSupervisor& supervisor, const LaunchTiming& timing,
-                         const std::function<bool()>& stop_requested);
+                         const std::function<bool()>& stop_requested, const std::function<void()>& tick = {});
 
-/// One line per service: name, state, last exit, restarts, log file.
+/// One line per service (name, state, last exit, restarts, log file; for a failed one its last
+/// error line), then "result: ok", "result: lost: ..." or "result: failed: ...".
 std::string summarize(const LaunchOutcome& outcome);
+
+/// The last line of a service log that reports an error ("[error]", "[critical]"), or "".
+std::string last_error_line(const std::string& log_path);
 
 }  // namespace fuse::launch

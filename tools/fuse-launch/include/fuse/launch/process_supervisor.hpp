@@ -1,7 +1,12 @@
 // ProcessSupervisor: a set of named services, each a child process with its log at
 // <log_dir>/<name>.log. It reaps them, classifies every exit it did not ask for (finished,
-// failed, or restarted after a backoff that doubles with each restart, up to max_restarts), and
-// stops them, the last started first, with SIGTERM and then SIGKILL after a timeout.
+// failed, or restarted after a backoff), and stops them, the last started first, with SIGTERM
+// and then SIGKILL after a timeout.
+// Restarts: the backoff doubles with each death that follows a short run, and a service that
+// keeps dying early is given up after max_restarts such deaths (a crash loop); a process that
+// ran for healthy_after before dying starts the count afresh, so a long-running system survives
+// any number of occasional deaths. Exit codes in never_restart (usage or config error 2,
+// unreadable input 4) are not restarted: restarting cannot fix them.
 // Single-threaded: call it from one thread (the one that started the services).
 #pragma once
 
@@ -22,6 +27,10 @@ struct ServiceSpec {
   bool exit_zero_is_done = false; ///< exit code 0 means its work is complete (e.g. a replay)
 };
 
+/// Exit codes of the FUSE services that restarting cannot fix (docs/architecture.md).
+inline constexpr int kExitUsage = 2;  ///< usage or config error
+inline constexpr int kExitInput = 4;  ///< the input (recording, sensor, calibration) cannot be read
+
 enum class ServiceState {
   running,
   restarting,  ///< died unexpectedly; restarts when its backoff has passed
@@ -33,16 +42,20 @@ const char* to_string(ServiceState state);
 
 struct SupervisorOptions {
   std::string log_dir;  ///< created when missing
-  int max_restarts = 5;
+  int max_restarts = 5;  ///< consecutive early deaths (each within healthy_after of its start)
   std::chrono::milliseconds restart_backoff{250};  ///< before the first restart; doubles after
   std::chrono::milliseconds max_backoff{5000};
+  std::chrono::milliseconds healthy_after{10000};  ///< a run this long resets backoff and count
+  std::vector<int> never_restart{kExitUsage, kExitInput};
 };
 
 /// What happened to one service.
 struct ServiceReport {
   std::string name;
   ServiceState state = ServiceState::running;
-  int restarts = 0;
+  int restarts = 0;            ///< in total
+  int early_deaths = 0;        ///< consecutive deaths within healthy_after of a start
+  std::string failure;         ///< why it failed (no restarts left, exit code not restartable)
   std::optional<ExitStatus> last_exit;  ///< of its latest process, once that has ended
   bool escalated = false;               ///< stopping it needed SIGKILL
   std::string log_path;
@@ -88,6 +101,7 @@ class ProcessSupervisor {
     std::optional<Process> process;
     ServiceReport report;
     std::chrono::steady_clock::time_point restart_at;
+    std::chrono::steady_clock::time_point started_at;
   };
 
   Service& find(const std::string& name);

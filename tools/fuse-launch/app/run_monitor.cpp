@@ -1,0 +1,206 @@
+#include "run_monitor.hpp"
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "fuse/core/logging.hpp"
+#include "fuse/map/map_server_core.hpp"
+
+namespace fuse::launch_tool {
+
+namespace {
+/// Data flows while fuse-ingest's scan count rose within this many health periods.
+constexpr double kFlowPeriods = 3.0;
+constexpr double kFlowMinS = 1.0;
+
+/// Counters worth a line in the summary, per service (the rest are in the services' logs).
+const std::map<std::string, std::vector<std::string>>& summary_counters() {
+  static const std::map<std::string, std::vector<std::string>> c = {
+      {"fuse-ingest", {"scans_published", "imu_published", "events_skipped"}},
+      {"fuse-state",
+       {"recoveries", "recoveries_from_checkpoint", "imu_gap", "relocalizing_episodes", "lost_episodes",
+        "correction_too_old", "odometry_deferred_catching_up"}},
+      {"fuse-update",
+       {"scans_processed", "scan_before_init", "scans_already_corrected", "scans_dropped_backlog",
+        "history_wait_timeout", "history_refused", "recovery_scans", "diverged", "observations_resent",
+        "observations_given_up"}},
+      {"fuse-map", {"observations_applied", "journal_errors", "observations_pending_dropped"}},
+  };
+  return c;
+}
+
+std::size_t line_count(const std::string& path) {
+  std::ifstream f(path);
+  std::size_t n = 0;
+  for (std::string line; std::getline(f, line);) n += (!line.empty() && line[0] != '#') ? 1 : 0;
+  return n;
+}
+}  // namespace
+
+RunMonitor::RunMonitor(const service::SystemConfig& config, std::string trajectory_file, std::string map_dir,
+                       MonitorLimits limits)
+    : limits_(limits),
+      trajectory_file_(std::move(trajectory_file)),
+      map_dir_(std::move(map_dir)),
+      health_period_s_(config.health.period_s) {
+  participant_ = transport::make_participant(config.transport, "fuse-launch");
+  health_ = std::make_unique<transport::Subscriber<fuse_msgs::Health>>(
+      *participant_, transport::topics::kHealth, [this](const fuse_msgs::Health& h) { on_health(h); });
+  corrected_ = std::make_unique<transport::Subscriber<fuse_msgs::StateEstimate>>(
+      *participant_, transport::topics::kCorrected, [this](const fuse_msgs::StateEstimate&) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (!have_estimate_) skipped_before_first_estimate_ = total("fuse-update", "scan_before_init");
+        have_estimate_ = true;
+        last_estimate_ = Clock::now();
+      });
+  status_ = std::make_unique<transport::Subscriber<fuse_msgs::MapStatus>>(
+      *participant_, transport::topics::kMapStatus, [this](const fuse_msgs::MapStatus& s) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (s.session() != 0) acked_[s.session()] = std::max(acked_[s.session()], s.acked_sequence());
+      });
+}
+
+RunMonitor::~RunMonitor() {
+  status_.reset();
+  corrected_.reset();
+  health_.reset();
+}
+
+void RunMonitor::on_health(const fuse_msgs::Health& h) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  Instance& i = instances_[h.instance()];
+  i.service = h.service().to_string();
+  i.state = h.state().to_string();
+  i.last_error = h.last_error().to_string();
+  for (const auto& c : h.counters()) i.counters[c.name().to_string()] = c.value();
+  if (i.service == "fuse-state") state_tracking_ = i.state;
+  const std::uint64_t published = total("fuse-ingest", "scans_published");
+  if (published > scans_published_seen_) {
+    scans_published_seen_ = published;
+    last_scan_published_ = Clock::now();
+  }
+}
+
+std::uint64_t RunMonitor::total(const std::string& service, const std::string& counter) const {
+  std::uint64_t n = 0;
+  for (const auto& [id, i] : instances_) {
+    if (i.service != service) continue;
+    const auto it = i.counters.find(counter);
+    if (it != i.counters.end()) n += it->second;
+  }
+  return n;
+}
+
+bool RunMonitor::data_flows(Clock::time_point now) const {
+  const double window = std::max(kFlowMinS, kFlowPeriods * health_period_s_);
+  return scans_published_seen_ > 0 && std::chrono::duration<double>(now - last_scan_published_).count() <= window;
+}
+
+void RunMonitor::poll() {
+  const auto now = Clock::now();
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!have_estimate_) return;  // start-up: static initialisation waits for the data
+  // An estimate is there while corrections arrive and fuse-state does not say lost. The
+  // correction rate follows the scans, so a silence of a few scan periods is not yet an outage.
+  const double since_estimate = std::chrono::duration<double>(now - last_estimate_).count();
+  const bool estimate = since_estimate < std::max(kFlowMinS, kFlowPeriods * health_period_s_) && state_tracking_ != "lost";
+  const bool outage = !estimate && data_flows(now);
+  if (outage && !in_outage_) {
+    in_outage_ = true;
+    outage_start_ = state_tracking_ == "lost" ? now : last_estimate_;
+  }
+  if (in_outage_) {
+    const double length = std::chrono::duration<double>(now - outage_start_).count();
+    if (!outage) {
+      if (length > limits_.loss_after_s) ++outages_over_limit_;
+      in_outage_ = false;
+    }
+    longest_outage_s_ = std::max(longest_outage_s_, length);
+  }
+}
+
+RunMonitor::Verdict RunMonitor::finish(const std::vector<launch::ServiceReport>& reports) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  Verdict v;
+  std::ostringstream out;
+  if (in_outage_) {
+    const double length = std::chrono::duration<double>(Clock::now() - outage_start_).count();
+    longest_outage_s_ = std::max(longest_outage_s_, length);
+    if (length > limits_.loss_after_s) ++outages_over_limit_;
+  }
+  if (outages_over_limit_ > 0) {
+    v.losses.push_back(fmt::format("no estimate for up to {:.1f} s while sensor data flowed ({} time(s) over {:.1f} s)",
+                                   longest_outage_s_, outages_over_limit_, limits_.loss_after_s));
+  }
+  if (state_tracking_ == "lost") v.losses.push_back("fuse-state was lost at the end of the run");
+
+  // Scans replayed against poses written.
+  const std::uint64_t published = total("fuse-ingest", "scans_published");
+  const std::size_t poses = trajectory_file_.empty() ? 0 : line_count(trajectory_file_);
+  const std::uint64_t expected = published > skipped_before_first_estimate_ ? published - skipped_before_first_estimate_ : 0;
+  const std::uint64_t dropped = expected > poses ? expected - poses : 0;
+  if (expected > 0 && static_cast<double>(dropped) > limits_.max_dropped_scans * static_cast<double>(expected)) {
+    v.losses.push_back(fmt::format("{} of {} replayed scans have no pose ({:.1f} %, more than {:.1f} %)", dropped, expected,
+                                   100.0 * static_cast<double>(dropped) / static_cast<double>(expected),
+                                   100.0 * limits_.max_dropped_scans));
+  }
+  const std::uint64_t journal_errors = total("fuse-map", "journal_errors");
+  if (journal_errors > 0) {
+    v.losses.push_back(fmt::format("{} journal error(s): the map could not be written when it should have been "
+                                   "(see fuse-map's log and fuse-map-ctl stats)",
+                                   journal_errors));
+  }
+  if (const std::uint64_t given_up = total("fuse-update", "observations_given_up")) {
+    v.losses.push_back(fmt::format("{} observation(s) given up by fuse-update, never acknowledged by the map server",
+                                   given_up));
+  }
+  // Every acknowledged observation must be in the map directory.
+  std::uint64_t acked_total = 0;
+  if (!acked_.empty()) {
+    try {
+      MapServerConfig mc;
+      mc.directory = map_dir_;
+      MapServerCore map(mc, MapStorage::Access::kReadOnly);
+      for (const auto& [session, acked] : acked_) {
+        acked_total += acked;
+        const std::uint64_t durable = map.acked(session);
+        if (durable < acked) {
+          v.losses.push_back(fmt::format("session {:016x}: observations {}..{} were acknowledged but are not in {}",
+                                         session, durable + 1, acked, map_dir_));
+        }
+      }
+    } catch (const std::exception& e) {
+      v.losses.push_back("the map directory " + map_dir_ + " cannot be read back: " + e.what());
+    }
+  }
+
+  out << "summary:\n";
+  out << "  restarts:";
+  int ingest_restarts = 0;
+  for (const auto& r : reports) {
+    out << " " << r.name << " " << r.restarts;
+    if (r.name == "fuse-ingest") ingest_restarts = r.restarts;
+  }
+  out << "\n";
+  out << fmt::format("  gaps: fuse-ingest restarted {} time(s), IMU data gaps flagged {}\n", ingest_restarts,
+                     total("fuse-state", "imu_gap"));
+  out << fmt::format("  scans: {} replayed, {} with a pose, {} skipped before the first initialisation\n", published,
+                     poses, skipped_before_first_estimate_);
+  out << fmt::format("  estimate: longest outage while data flowed {:.1f} s; fuse-state now {}\n", longest_outage_s_,
+                     state_tracking_.empty() ? "unknown" : state_tracking_);
+  out << fmt::format("  map: {} session(s), {} observation(s) acknowledged\n", acked_.size(), acked_total);
+  for (const auto& [service, names] : summary_counters()) {
+    std::string line;
+    for (const std::string& n : names) {
+      if (const std::uint64_t value = total(service, n)) line += " " + n + "=" + std::to_string(value);
+    }
+    if (!line.empty()) out << "  " << service << ":" << line << "\n";
+  }
+  for (const std::string& loss : v.losses) out << "  LOST: " << loss << "\n";
+  v.summary = out.str();
+  return v;
+}
+
+}  // namespace fuse::launch_tool
