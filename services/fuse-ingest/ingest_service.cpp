@@ -28,8 +28,8 @@ IngestService::IngestService(const SystemConfig& config, transport::Participant&
       source_(std::make_unique<io::PrefetchSource>(open_ingest_input(options_.input),
                                                 static_cast<std::size_t>(config.ingest.prefetch_events))),
       counters_(logger(kName)),
-      imu_(participant, transport::topics::kImu),
-      scans_(participant, transport::topics::kLidarScan) {
+      imu_(participant, transport::topics::kImu, config.ingest.held_imu),
+      scans_(participant, transport::topics::kLidarScan, config.ingest.held_scans) {
   correction_sub_ = std::make_unique<transport::Subscriber<fuse_msgs::Correction>>(
       participant, transport::topics::kCorrection, [this](const fuse_msgs::Correction& c) {
         {
@@ -185,7 +185,10 @@ int IngestService::run() {
       }
       const double due = wall0 + (t - *t0) / options_.rate;
       const double wait = due - unix_now();
-      if (wait < -0.05) {  // the schedule is past this event (a restarted ingest): a data gap
+      // Far behind the schedule: a restarted ingest joining it, the events of its downtime are a
+      // data gap, as with a real sensor. A little behind (the machine was busy for a moment): a
+      // driver would deliver late, not drop, so publish at once and catch up.
+      if (wait < -config_.ingest.max_lateness_s) {
         ++skipped;
         continue;
       }
@@ -197,7 +200,7 @@ int IngestService::run() {
   } catch (const io::InputError& e) {
     log->error("input error: {}", e.what());
     flush();  // what was published before the error still reaches its readers
-    return 1;
+    return kExitInput;
   }
   flush();
   if (skipped > 0) log->info("{} events skipped (before the resume point or behind the schedule)", skipped);

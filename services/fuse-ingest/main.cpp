@@ -52,7 +52,7 @@ int main(int argc, char** argv) {
     return code;
   } catch (const fuse::io::InputError& e) {
     log->error("cannot open input: {}", e.what());
-    return 1;
+    return kExitInput;
   } catch (const std::exception& e) {
     log->error("{}", e.what());
     return 1;

@@ -15,7 +15,12 @@ int main(int argc, char** argv) {
   try {
     // As fuse-run: a recording's extrinsic overrides the configured one.
     if (const std::string input = args.get("calibration-from"); !input.empty()) {
-      if (auto T = fuse::io::open_sensor_source(input)->T_imu_lidar()) config.estimator.T_imu_lidar = *T;
+      try {
+        if (auto T = fuse::io::open_sensor_source(input)->T_imu_lidar()) config.estimator.T_imu_lidar = *T;
+      } catch (const fuse::io::InputError& e) {
+        log->error("--calibration-from {}: {}", input, e.what());
+        return kExitInput;
+      }
     }
     auto participant = fuse::transport::make_participant(config.transport, "fuse-state");
     StateService service(config, *participant, args.get("trajectory"));

@@ -20,6 +20,9 @@ constexpr double kAbsurdTimeSpan = 86400.0;
 constexpr double kMaxQueryTime = 1e10;
 /// A history slice covers one scan: longer requests are refused.
 constexpr double kMaxHistorySpan = 1.0;
+/// A restored history whose newest IMU is this far past its last up-to-date entry is catching up
+/// on held scans: odometry waits, and the latest state answered is the up-to-date one.
+constexpr double kCatchUpS = 1.0;
 
 void set_error(fuse_msgs::RpcStatus status, const std::string& message, fuse_msgs::QueryReply& rep) {
   rep.error(status);
@@ -29,12 +32,32 @@ void set_error(fuse_msgs::RpcStatus status, const std::string& message, fuse_msg
   rep.error(status);
   rep.error_message(message.substr(0, 255));
 }
+
+EstimatorConfig with_history(EstimatorConfig c, double history_s) {
+  c.history.length_s = std::max(c.history.length_s, history_s);
+  return c;
+}
+
+/// The reply's status when the estimator is not tracking: its own state, whatever t.
+void mark(Tracking tracking, fuse_msgs::StateEstimate& e) {
+  if (tracking == Tracking::kRelocalizing) e.status(fuse_msgs::STATUS_RELOCALIZING);
+  if (tracking == Tracking::kLost) e.status(fuse_msgs::STATUS_LOST);
+}
 }  // namespace
+
+const char* to_string(Tracking tracking) {
+  switch (tracking) {
+    case Tracking::kTracking: return "tracking";
+    case Tracking::kRelocalizing: return "relocalizing";
+    case Tracking::kLost: return "lost";
+  }
+  return "unknown";
+}
 
 StateService::StateService(const SystemConfig& config, transport::Participant& participant,
                            const std::string& trajectory_file)
     : config_(config),
-      tracker_(config.estimator),
+      tracker_(with_history(config.estimator, config.state.history_s)),
       counters_(logger(kName)),
       odometry_(participant, transport::topics::kOdometry),
       corrected_(participant, transport::topics::kCorrected) {
@@ -48,6 +71,16 @@ StateService::StateService(const SystemConfig& config, transport::Participant& p
     trajectory_.open(trajectory_file, std::ios::app);
     if (!trajectory_) throw std::runtime_error("cannot open trajectory file '" + trajectory_file + "' for appending");
     trajectory_ << std::fixed << std::setprecision(9);
+  }
+  if (const std::string& file = config.state.checkpoint_file; !file.empty()) {
+    std::string why;
+    checkpoint_ = read_checkpoint(file, why);
+    if (checkpoint_) {
+      logger(kName)->info("checkpoint {} holds the posterior at t={:.3f}", file, checkpoint_->t);
+    } else {
+      logger(kName)->info("{}", why);
+    }
+    checkpoint_writer_ = std::make_unique<CheckpointWriter>(file, config.state.checkpoint_period_s);
   }
   imu_sub_ = std::make_unique<transport::Subscriber<fuse_msgs::ImuSample>>(
       participant, transport::topics::kImu, [this](const fuse_msgs::ImuSample& m) { on_imu(m); },
@@ -84,6 +117,8 @@ void StateService::run() {
     go_live();
   }
   while (!wait_for_stop_alive(0.1)) {  // pings the service manager's watchdog
+    std::lock_guard<std::mutex> lock(mutex_);
+    tracking();  // status changes are logged even when nobody asks
   }
   health_->publish_now();
 }
@@ -121,26 +156,56 @@ void StateService::on_imu(const fuse_msgs::ImuSample& msg) {
   if (odometry) odometry_.publish(*odometry);
 }
 
+bool StateService::catching_up() const {
+  const StateHistory& h = tracker_.history();
+  return tracker_.initialised() && h.newest_time() - h.fresh_time() > kCatchUpS;
+}
+
 std::optional<fuse_msgs::StateEstimate> StateService::feed(const ImuSample& imu) {
+  if (tracker_.initialised() && imu.t <= live_since_t_) {
+    // Held IMU from before the restored posterior, arriving after it (a writer's history is
+    // delivered over a second or so after a restart): history, not a fault of the stream.
+    counters_.add("imu_before_restore");
+    return std::nullopt;
+  }
+  const bool was_initialised = tracker_.initialised();
   tracker_.ingest(imu);
   if (!tracker_.initialised()) return std::nullopt;
-  return to_estimate(tracker_.history().query(tracker_.history().newest().t), ++odometry_sequence_);
+  if (!was_initialised) live_since_t_ = tracker_.history().oldest_time();  // static initialisation
+  if (catching_up()) {
+    // The newest state is not up to date while held scans' corrections are applied far behind
+    // it: computing it for every sample would re-propagate the whole tail each time.
+    counters_.add("odometry_deferred_catching_up");
+    return std::nullopt;
+  }
+  fuse_msgs::StateEstimate e = to_estimate(tracker_.history().query(tracker_.history().newest_time()), ++odometry_sequence_);
+  mark(tracking(), e);
+  return e;
 }
 
 void StateService::go_live() {
   if (live_) return;
   live_ = true;
-  if (pending_recovery_) {
-    restore_from(*pending_recovery_);
-    pending_recovery_.reset();
+  // The newest posterior held anywhere: fuse-update's corrections or our own checkpoint.
+  std::optional<Posterior> best = pending_recovery_;
+  std::string source = "the correction";
+  if (checkpoint_ && (!best || checkpoint_->t > best->t)) {
+    best = checkpoint_;
+    source = "the checkpoint";
+  }
+  pending_recovery_.reset();
+  checkpoint_.reset();
+  if (best) {
+    restore_from(*best, source);
     return;
   }
   logger(kName)->info("no correction to recover from: initialising from the IMU ({} buffered samples)",
                       imu_buffer_.size());
   for (const ImuSample& imu : imu_buffer_) tracker_.ingest(imu);
+  if (tracker_.initialised()) live_since_t_ = tracker_.history().oldest_time();
 }
 
-void StateService::restore_from(const Posterior& post) {
+void StateService::restore_from(const Posterior& post, const std::string& source) {
   // The held measurement at t is the last IMU sample at or before t.
   ImuSample held;
   held.t = post.t;
@@ -152,20 +217,37 @@ void StateService::restore_from(const Posterior& post) {
     have_held = true;
   }
   if (!have_held) {
-    counters_.count("recovery_without_imu", "no buffered IMU before the recovered correction: holding zero rates");
+    counters_.count("recovery_without_imu", "no buffered IMU before the recovered posterior: holding zero rates");
     held.gyro.setZero();
     held.accel = -post.x.R.transpose() * post.x.g;
   }
   tracker_.restore(post.t, post.x, post.P, held);
   std::size_t replayed = 0;
+  double first_after = -1.0;
   for (const ImuSample& imu : imu_buffer_) {
     if (imu.t <= post.t) continue;
+    if (first_after < 0.0) first_after = imu.t;
     tracker_.ingest(imu);
     ++replayed;
   }
   last_applied_correction_t_ = post.t;
+  live_since_t_ = post.t;
+  restored_ = true;
   counters_.add("recoveries");
-  logger(kName)->info("recovered from the correction at t={:.3f}; re-propagated {} buffered IMU samples", post.t, replayed);
+  if (replayed == 0) {
+    logger(kName)->info("recovered from {} at t={:.3f}; no buffered IMU after it yet (the held IMU is still "
+                        "arriving, or none was held); relocalizing until a scan confirms it",
+                        source, post.t);
+  } else {
+    logger(kName)->info(
+        "recovered from {} at t={:.3f}; re-propagated {} buffered IMU samples up to t={:.3f} ({:.2f} s{}); "
+        "relocalizing until a scan confirms it",
+        source, post.t, replayed, imu_buffer_.back().t, imu_buffer_.back().t - post.t,
+        first_after > post.t + config_.estimator.divergence.max_imu_gap
+            ? fmt::format(", of which a {:.2f} s data gap coasted", first_after - post.t)
+            : "");
+  }
+  if (source == "the checkpoint") counters_.add("recoveries_from_checkpoint");
 }
 
 void StateService::on_correction(const fuse_msgs::Correction& msg) {
@@ -187,7 +269,7 @@ void StateService::on_correction(const fuse_msgs::Correction& msg) {
         pending_recovery_ = post;
       }
       if (live_ && pending_recovery_) {
-        restore_from(*pending_recovery_);
+        restore_from(*pending_recovery_, "the correction");
         pending_recovery_.reset();
       } else {
         return;
@@ -202,8 +284,11 @@ void StateService::on_correction(const fuse_msgs::Correction& msg) {
         h.correct(post.t, post.x, post.P);
         last_applied_correction_t_ = post.t;
         counters_.add("corrections_applied");
+        if (checkpoint_writer_) checkpoint_writer_->offer(post);
+        if (restored_ && msg.tracking() == fuse_msgs::TRACKING_OK) restored_ = false;
       }
     }
+    update_tracking_ = msg.tracking();
     const StateQuery q = tracker_.history().query(post.t);
     if (!q.ok()) return;
     if (trajectory_.is_open() && q.t > trajectory_t_) {
@@ -219,24 +304,72 @@ void StateService::on_correction(const fuse_msgs::Correction& msg) {
   corrected_.publish(*corrected);
 }
 
+Tracking StateService::tracking() {
+  Tracking now = Tracking::kTracking;
+  std::string why;
+  if (!live_) {
+    now = Tracking::kRelocalizing;
+    why = "recovering after a restart";
+  } else if (!tracker_.initialised()) {
+    if (tracker_.counters().get("init_not_at_rest") > 0) {
+      now = Tracking::kLost;
+      why = "no posterior to recover from and the sensor moves: waiting for it to rest";
+    }
+  } else {
+    const StateHistory& h = tracker_.history();
+    const double since = std::max(last_applied_correction_t_, live_since_t_);
+    if (update_tracking_ == fuse_msgs::TRACKING_LOST) {
+      now = Tracking::kLost;
+      why = "fuse-update reports that the scans do not fit the map";
+    } else if (h.newest_time() - since > config_.state.lost_after_s) {
+      now = Tracking::kLost;
+      why = fmt::format("no LiDAR correction for {:.1f} s of IMU (state.lost_after_s)", h.newest_time() - since);
+    } else if (catching_up()) {
+      now = Tracking::kRelocalizing;
+      why = fmt::format("catching up on held scans ({:.1f} s behind the newest IMU)", h.newest_time() - h.fresh_time());
+    } else if (restored_) {
+      now = Tracking::kRelocalizing;
+      why = "restored after a restart: waiting for a scan to confirm the posterior";
+    } else if (update_tracking_ == fuse_msgs::TRACKING_RELOCALIZING) {
+      now = Tracking::kRelocalizing;
+      why = "fuse-update re-localises scans against the map (the prior is uncertain)";
+    }
+  }
+  if (now != tracking_) {
+    auto log = logger(kName);
+    if (now == Tracking::kTracking) {
+      log->info("tracking again (was {})", to_string(tracking_));
+    } else {
+      log->warn("{}: {}", to_string(now), why);
+    }
+    if (now == Tracking::kLost) counters_.add("lost_episodes");
+    if (now == Tracking::kRelocalizing) counters_.add("relocalizing_episodes");
+    tracking_ = now;
+  }
+  tracking_reason_ = why;
+  return now;
+}
+
 void StateService::on_query(const fuse_msgs::QueryRequest& req, fuse_msgs::QueryReply& rep) {
   std::lock_guard<std::mutex> lock(mutex_);
   counters_.add("queries");
   const bool have_state = tracker_.initialised();
+  const Tracking status = tracking();
   double t = req.t();
   if (req.latest()) {
     if (!have_state) {
-      rep.estimate().status(fuse_msgs::STATUS_NOT_INITIALISED);
+      rep.estimate().status(status == Tracking::kLost ? fuse_msgs::STATUS_LOST : fuse_msgs::STATUS_NOT_INITIALISED);
       return;
     }
-    t = tracker_.history().newest().t;
+    // While catching up, the newest up-to-date state (computing the newest would re-propagate the tail).
+    t = catching_up() ? tracker_.history().fresh_time() : tracker_.history().newest_time();
   }
   if (!std::isfinite(t) || t < 0.0 || t > kMaxQueryTime) {
     counters_.add("query_bad_request");
     set_error(fuse_msgs::RPC_BAD_REQUEST, "query time must be finite, non-negative and below 1e10 s", rep);
     return;
   }
-  if (have_state && std::abs(t - tracker_.history().newest().t) > kAbsurdTimeSpan) {
+  if (have_state && std::abs(t - tracker_.history().newest_time()) > kAbsurdTimeSpan) {
     counters_.add("query_bad_request");
     set_error(fuse_msgs::RPC_BAD_REQUEST, "query time is more than a day away from the newest state", rep);
     return;
@@ -244,6 +377,7 @@ void StateService::on_query(const fuse_msgs::QueryRequest& req, fuse_msgs::Query
   StateQuery q = tracker_.history().query(t);
   if (!have_state) q.status = QueryStatus::kNotInitialised;
   rep.estimate(to_estimate(q, 0));
+  mark(status, rep.estimate());
 }
 
 void StateService::on_history(const fuse_msgs::HistoryRequest& req, fuse_msgs::HistoryReply& rep) {
@@ -254,8 +388,9 @@ void StateService::on_history(const fuse_msgs::HistoryRequest& req, fuse_msgs::H
     set_error(fuse_msgs::RPC_BAD_REQUEST, "history span must be finite, ordered and at most 1 s", rep);
     return;
   }
-  if (!live_) {  // recovering: the caller should retry, as for IMU not covering the scan yet
+  if (!live_) {  // recovering: the caller holds the scan and asks again
     rep.initialised(true);
+    rep.recovering(true);
     set_error(fuse_msgs::RPC_NOT_READY, "recovering the last correction", rep);
     return;
   }
@@ -265,7 +400,7 @@ void StateService::on_history(const fuse_msgs::HistoryRequest& req, fuse_msgs::H
     return;
   }
   StateHistory& h = tracker_.history();
-  if (h.newest().t < t1) {
+  if (h.newest_time() < t1) {
     set_error(fuse_msgs::RPC_NOT_READY, "IMU does not cover the scan end yet", rep);
     return;
   }
@@ -294,11 +429,23 @@ void StateService::on_history(const fuse_msgs::HistoryRequest& req, fuse_msgs::H
 HealthSnapshot StateService::health() {
   std::lock_guard<std::mutex> lock(mutex_);
   HealthSnapshot s;
-  s.state = !live_ ? "starting" : (tracker_.initialised() ? "running" : "initialising");
+  const Tracking t = tracking();
+  if (!live_) {
+    s.state = "starting";
+  } else if (t != Tracking::kTracking) {
+    s.state = to_string(t);  // relocalizing | lost
+  } else {
+    s.state = tracker_.initialised() ? "running" : "initialising";
+  }
   s.counters = counters_.map();
   for (const auto& [k, v] : tracker_.counters().map()) s.counters[k] += v;
   s.counters["imu_malformed"] = imu_sub_ ? imu_sub_->malformed() : 0;
-  s.last_error = last_error_;
+  if (checkpoint_writer_) {
+    s.counters["checkpoints_written"] = checkpoint_writer_->written();
+    s.counters["checkpoint_failures"] = checkpoint_writer_->failures();
+  }
+  s.last_error = t != Tracking::kTracking && !tracking_reason_.empty() ? to_string(t) + std::string(": ") + tracking_reason_
+                                                                      : last_error_;
   return s;
 }
 

@@ -2,10 +2,22 @@
 //   in:  imu (propagate), update/correction (replace the entry at scan time, re-propagate)
 //   out: state/odometry (every IMU sample), state/corrected (every LiDAR correction),
 //        RPC query (planners), RPC history (fuse-update: the slice of history over a scan)
-// Restart: the last correction arrives again (transient-local, held by fuse-update's writer)
-// and so do the last seconds of IMU (held by fuse-ingest's writer): the service waits
-// `state.recovery_wait_s` for a correction, restores the history from it and re-propagates the
-// buffered IMU after it; without one it initialises statically from the IMU as on a first start.
+//
+// Restart (docs/architecture.md, "Restarts: nothing that can be kept is lost"): the newest of
+// the posteriors still held anywhere is restored and the held IMU after it re-propagated:
+//   - the corrections held by fuse-update's writer (transient-local), newest first;
+//   - the service's own checkpoint (state.checkpoint_file), for when fuse-update restarted too;
+//   - the IMU held by fuse-ingest's writer (ingest.held_imu, 60 s), so that an outage of up to
+//     ~30 s is re-propagated from measurements instead of coasted.
+// fuse-update holds the scans it could not process meanwhile and sends their corrections once
+// this service answers again; the history is long enough (state.history_s) for them to land,
+// and its re-propagation is lazy (StateHistory), so catching up costs one pass over the tail.
+// Only with no posterior at all does it initialise statically from the IMU, as on a first start.
+//
+// Tracking status, in every query reply and on health: tracking, relocalizing (restored from an
+// old posterior and catching up, or fuse-update reports scans being re-localised), lost (no
+// state while the sensor moves, fuse-update reports lost, or no LiDAR correction for
+// state.lost_after_s of IMU).
 #pragma once
 
 #include <deque>
@@ -18,10 +30,14 @@
 #include "fuse/estimation/state_tracker.hpp"
 #include "fuse/service/convert.hpp"
 #include "fuse/service/health.hpp"
+#include "fuse/service/state_checkpoint.hpp"
 #include "fuse/service/system_config.hpp"
 #include "fuse/transport/rpc.hpp"
 
 namespace fuse::service {
+
+enum class Tracking { kTracking, kRelocalizing, kLost };
+const char* to_string(Tracking tracking);
 
 class StateService {
  public:
@@ -36,8 +52,12 @@ class StateService {
   void on_history(const fuse_msgs::HistoryRequest& req, fuse_msgs::HistoryReply& rep);
   /// Feeds one IMU sample to the tracker (lock held) and returns the odometry to publish.
   std::optional<fuse_msgs::StateEstimate> feed(const ImuSample& imu);
-  void restore_from(const Posterior& post);
-  void go_live();  ///< end of the recovery wait: buffered IMU goes to the tracker
+  void restore_from(const Posterior& post, const std::string& source);
+  void go_live();  ///< end of the recovery wait: restore (or initialise) from what is held
+  /// True while a restored history is being caught up (corrections far behind the newest IMU).
+  bool catching_up() const;
+  /// The status as of now (lock held); logs and counts changes.
+  Tracking tracking();
   HealthSnapshot health();
   void malformed(const std::string& topic, const std::string& why);
 
@@ -48,8 +68,15 @@ class StateService {
   std::deque<ImuSample> imu_buffer_;  ///< raw IMU of the last state.imu_buffer_s seconds
   bool live_ = false;                 ///< false during the recovery wait
   std::optional<Posterior> pending_recovery_;
+  std::optional<Posterior> checkpoint_;  ///< read at start-up
+  std::unique_ptr<CheckpointWriter> checkpoint_writer_;
   std::uint64_t odometry_sequence_ = 0;
   double last_applied_correction_t_ = -1.0;
+  double live_since_t_ = -1.0;  ///< sensor time from which the state is known (init or restore)
+  bool restored_ = false;       ///< relocalizing until a scan is updated with TRACKING_OK after the restore
+  fuse_msgs::TrackingState update_tracking_ = fuse_msgs::TRACKING_OK;  ///< of the newest correction
+  Tracking tracking_ = Tracking::kTracking;
+  std::string tracking_reason_;
   std::string last_error_;
   std::ofstream trajectory_;
   double trajectory_t_ = -1.0;  ///< newest pose in the trajectory file (kept across restarts)

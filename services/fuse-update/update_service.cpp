@@ -14,7 +14,8 @@ namespace fuse::service {
 
 namespace {
 constexpr const char* kName = "fuse-update";
-constexpr std::size_t kMaxQueuedScans = 50;  ///< beyond this backlog the oldest scan is dropped (counted)
+/// While the backlog waits for fuse-state, it asks again this often.
+constexpr std::chrono::milliseconds kHoldRetry{50};
 using Clock = std::chrono::steady_clock;
 using Ms = std::chrono::milliseconds;
 }  // namespace
@@ -23,6 +24,7 @@ UpdateService::UpdateService(const SystemConfig& config, transport::Participant&
     : config_(config),
       session_(transport::random_id()),
       updater_(config.estimator),
+      backlog_(config.estimator.preprocess, config.update.max_backlog_s),
       counters_(logger(kName)),
       corrections_(participant, transport::topics::kCorrection),
       observations_(participant, transport::topics::kObservation),
@@ -75,10 +77,14 @@ void UpdateService::on_scan(const std::uint8_t* data, std::size_t size) {
       counters_.add("scans_already_corrected");
       return;
     }
-    scans_.push_back(std::move(scan));
-    if (scans_.size() > kMaxQueuedScans) {
-      scans_.pop_front();
-      counters_.count("scan_backlog_dropped", "scan backlog over " + std::to_string(kMaxQueuedScans) + ": oldest scan dropped");
+    const double t_end = scan.t_end;
+    if (const std::size_t dropped = backlog_.push(std::move(scan))) {
+      counters_.add("scans_dropped_backlog", dropped - 1);
+      counters_.count("scans_dropped_backlog",
+                      fmt::format("scan backlog spans more than update.max_backlog_s = {:.1f} s at t={:.3f}: {} oldest "
+                                  "scan(s) dropped unprocessed",
+                                  config_.update.max_backlog_s, t_end, dropped));
+      last_error_ = "scan backlog full: scans dropped unprocessed";
     }
   }
   cv_.notify_one();
@@ -156,7 +162,15 @@ void UpdateService::run() {
     bool resync = false;
     {
       std::unique_lock<std::mutex> lock(mutex_);
-      cv_.wait_for(lock, Ms(50), [this] { return !scans_.empty(); });
+      if (holding_) {
+        // fuse-state could not answer: keep what arrives, compacted, and ask again shortly.
+        cv_.wait_for(lock, kHoldRetry, [] { return stop_requested(); });
+      } else {
+        cv_.wait_for(lock, Ms(50), [this] { return !backlog_.empty(); });
+      }
+      if (backlog_.size() > config_.update.compact_after) {
+        counters_.add("scans_compacted", backlog_.compact_waiting(config_.update.compact_after));
+      }
       if (have_status_ && status_.epoch() != replica_epoch_) resync = true;
       if (have_status_ && status_.mode() != replica_mode_ && !resync) {
         replica_mode_ = status_.mode();
@@ -165,9 +179,8 @@ void UpdateService::run() {
           logger(kName)->info("map mode is now {}", replica_mode_);
         }
       }
-      if (!resync && !scans_.empty()) {
-        scan = std::move(scans_.front());
-        scans_.pop_front();
+      if (!resync && !backlog_.empty()) {
+        scan = backlog_.take_front();
         have_scan = true;
       }
     }
@@ -176,7 +189,24 @@ void UpdateService::run() {
       sync_map(config_.update.map_sync_timeout_s);
       continue;
     }
-    if (have_scan) process(std::move(scan));
+    if (have_scan && process(scan) == Outcome::kHold) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      backlog_.return_front(std::move(scan));
+      if (!holding_) {
+        logger(kName)->warn("fuse-state cannot answer: holding the scans (at most update.max_backlog_s = {:.1f} s) "
+                            "until it can",
+                            config_.update.max_backlog_s);
+        state_ = "waiting";
+      }
+      holding_ = true;
+    } else if (have_scan) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (holding_) {
+        logger(kName)->info("fuse-state answers again: processing the {} held scan(s)", backlog_.size() + 1);
+        if (state_ == "waiting") state_ = "running";
+      }
+      holding_ = false;
+    }
     resend_unacked(false);
   }
   health_->publish_now();
@@ -190,7 +220,7 @@ void UpdateService::publish_skipped(const LidarScan& scan) {
   corrections_.publish(c);
 }
 
-bool UpdateService::fetch_history(const LidarScan& scan, StateHistory& out) {
+UpdateService::Fetch UpdateService::fetch_history(const LidarScan& scan, StateHistory& out) {
   const auto end = Clock::now() + std::chrono::duration_cast<Clock::duration>(
                                       std::chrono::duration<double>(config_.update.history_deadline_s));
   fuse_msgs::HistoryRequest req;
@@ -198,41 +228,42 @@ bool UpdateService::fetch_history(const LidarScan& scan, StateHistory& out) {
   req.t_end(scan.t_end);
   for (;;) {
     const auto left = std::chrono::duration_cast<Ms>(end - Clock::now());
-    if (left.count() <= 0 || stop_requested()) {
+    if (stop_requested()) return Fetch::kHold;
+    if (left.count() <= 0) {
       std::lock_guard<std::mutex> lock(mutex_);
       counters_.count("history_wait_timeout", "fuse-state did not cover the scan ending at t=" + std::to_string(scan.t_end) +
                                                   " in time: scan skipped");
-      return false;
+      return Fetch::kSkip;
     }
     auto result = history_.call(req, left);
     if (result.status == fuse_msgs::RPC_NOT_READY) {
+      if (result.reply.recovering()) return Fetch::kHold;  // fuse-state restarted: it answers after its recovery
       if (!result.reply.initialised()) {
         std::lock_guard<std::mutex> lock(mutex_);
         counters_.count("scan_before_init", "scan before the state is initialised, skipped");
-        return false;
+        return Fetch::kSkip;
       }
+      notifier().watchdog();
       std::this_thread::sleep_for(Ms(1));
       continue;
     }
+    // No fuse-state answered within the deadline: it is down or restarting. Hold the scan.
+    if (result.status == fuse_msgs::RPC_UNAVAILABLE) return Fetch::kHold;
     std::lock_guard<std::mutex> lock(mutex_);
-    if (result.status == fuse_msgs::RPC_UNAVAILABLE) {
-      counters_.count("state_unavailable", "no answer from fuse-state: scan skipped");
-      return false;
-    }
     if (!result.ok()) {
       counters_.count("history_refused", "fuse-state refused the history request: " + result.message);
-      return false;
+      return Fetch::kSkip;
     }
     std::vector<StateHistory::Entry> entries;
     try {
       for (const auto& e : result.reply.entries()) entries.push_back(from_msg(e));
     } catch (const InvalidSample& e) {
       counters_.count(e.reason(), std::string("history reply refused: ") + e.what());
-      return false;
+      return Fetch::kSkip;
     }
     if (entries.empty() || std::abs(entries.back().t - scan.t_end) > 1e-6) {
       counters_.count("history_invalid", "history reply does not end at the scan end");
-      return false;
+      return Fetch::kSkip;
     }
     for (int r = 0; r < kStateDim; ++r) {
       for (int c = 0; c < kStateDim; ++c) {
@@ -241,14 +272,31 @@ bool UpdateService::fetch_history(const LidarScan& scan, StateHistory& out) {
     }
     if (!entries.back().P.allFinite()) {
       counters_.count("history_invalid", "history covariance is not finite");
-      return false;
+      return Fetch::kSkip;
     }
     out.assign(entries, result.reply.last_correction_time());
-    return true;
+    bring_up_to_date(out, result.reply.last_correction_time());
+    return Fetch::kOk;
   }
 }
 
-void UpdateService::process(LidarScan scan) {
+void UpdateService::bring_up_to_date(StateHistory& history, double slice_last_correction_t) {
+  // fuse-state applies a correction when it arrives; a slice served before that (a backlog
+  // processed back to back, fuse-state restarted from an older posterior) was propagated from an
+  // older one. Applying ours at its time and re-propagating the slice's IMU after it gives what
+  // fuse-state's history holds once it has applied it (same StateHistory code, same inputs), so
+  // the next scan's prior does not depend on which process was faster.
+  constexpr double kSameTime = 1e-6;
+  if (!last_posterior_ || last_posterior_->t <= slice_last_correction_t + kSameTime) return;
+  const double t = last_posterior_->t;
+  if (t < history.oldest_time() - kSameTime || t > history.newest().t + kSameTime) return;  // not within the slice
+  history.ensure_entry(t);
+  history.correct(t, last_posterior_->x, last_posterior_->P);
+  std::lock_guard<std::mutex> lock(mutex_);
+  counters_.add("history_brought_up_to_date");
+}
+
+UpdateService::Outcome UpdateService::process(LidarScan& scan) {
   try {
     check_scan(scan);
   } catch (const InvalidSample& e) {
@@ -258,7 +306,14 @@ void UpdateService::process(LidarScan scan) {
       last_error_ = e.what();
     }
     publish_skipped(scan);
-    return;
+    return Outcome::kDone;
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (scan.t_end <= corrected_t_) {  // corrected by an earlier instance while this one held it
+      counters_.add("scans_already_corrected");
+      return Outcome::kDone;
+    }
   }
   if (scan.t_end <= last_scan_t_) {
     {
@@ -266,12 +321,13 @@ void UpdateService::process(LidarScan scan) {
       counters_.count("scan_out_of_order", "scan ending at t=" + std::to_string(scan.t_end) + " is not newer than the last one, refused");
     }
     publish_skipped(scan);
-    return;
+    return Outcome::kDone;
   }
   StateHistory history(config_.estimator.history, config_.estimator.imu);
-  if (!fetch_history(scan, history)) {
-    publish_skipped(scan);
-    return;
+  switch (fetch_history(scan, history)) {
+    case Fetch::kHold: return Outcome::kHold;
+    case Fetch::kSkip: publish_skipped(scan); return Outcome::kDone;
+    case Fetch::kOk: break;
   }
   last_scan_t_ = scan.t_end;
   ScanReport report;
@@ -285,10 +341,11 @@ void UpdateService::process(LidarScan scan) {
       state_ = "degraded";
     }
     publish_skipped(scan);
-    return;
+    return Outcome::kDone;
   }
   const StateQuery q = history.query(scan.t_end);
   Posterior post{scan.t_end, scan.sequence, q.x, q.P};
+  if (report.updated) last_posterior_ = post;
   fuse_msgs::Correction c = to_msg(post);
   c.result(report.updated ? fuse_msgs::SCAN_UPDATED : fuse_msgs::SCAN_PRIOR_ONLY);
   c.constraints_kept(static_cast<std::uint32_t>(report.constraints));
@@ -300,12 +357,17 @@ void UpdateService::process(LidarScan scan) {
   c.min_gamma(report.min_gamma);
   c.update_ms(report.ms_total);
   c.converged(report.converged);
+  c.fit(report.fit);
+  const bool relocalizing =
+      report.recovery && (!report.converged || report.fit < config_.estimator.recovery.min_fit);
+  c.tracking(relocalizing ? fuse_msgs::TRACKING_RELOCALIZING : fuse_msgs::TRACKING_OK);
   corrections_.publish(c);
   offer_to_map(scan.t_end);
   std::lock_guard<std::mutex> lock(mutex_);
   updater_counts_ = updater_.counters().map();
   counters_.add("scans_processed");
   if (report.updated) counters_.add("scans_updated");
+  return Outcome::kDone;
 }
 
 void UpdateService::offer_to_map(double t) {
@@ -357,7 +419,7 @@ HealthSnapshot UpdateService::health() {
   s.counters = counters_.map();
   for (const auto& [k, v] : updater_counts_) s.counters[k] += v;
   s.counters["observations_unacked"] = unacked_.size();
-  s.counters["scans_queued"] = scans_.size();
+  s.counters["scans_queued"] = backlog_.size();
   s.last_error = last_error_;
   return s;
 }

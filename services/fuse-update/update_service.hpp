@@ -11,6 +11,10 @@
 // server's chunks build the replica at start-up and after the map server replaces its map
 // (a new epoch). Observations carry (session, sequence); those the map server has not yet
 // acknowledged on map/status are re-sent.
+// While fuse-state cannot answer (restarting, absent) scans are held (ScanBacklog, bounded) and
+// processed in order once it can: a restart costs latency, not poses. Each history slice is
+// brought up to this instance's own newest posterior when fuse-state has not applied it yet, so
+// the scans of a backlog chain exactly as in the single-process estimator.
 #pragma once
 
 #include <condition_variable>
@@ -18,11 +22,13 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 
 #include "fuse/estimation/lidar_updater.hpp"
 #include "fuse/service/convert.hpp"
 #include "fuse/service/health.hpp"
+#include "fuse/service/scan_backlog.hpp"
 #include "fuse/service/system_config.hpp"
 #include "fuse/transport/rpc.hpp"
 
@@ -44,9 +50,16 @@ class UpdateService {
   void on_chunk(const fuse_msgs::MapChunk& msg);
   void on_status(const fuse_msgs::MapStatus& msg);
   void sync_map(double timeout_s);
-  void process(LidarScan scan);
-  /// Asks fuse-state for the history slice; false (counted) when the scan must be skipped.
-  bool fetch_history(const LidarScan& scan, StateHistory& out);
+  /// kHold: fuse-state cannot answer now; the scan goes back to the backlog's front.
+  enum class Outcome { kDone, kHold };
+  Outcome process(LidarScan& scan);
+  /// Asks fuse-state for the history slice: kOk, kSkip (counted: the scan cannot be processed)
+  /// or kHold (fuse-state is recovering or absent: ask again later).
+  enum class Fetch { kOk, kSkip, kHold };
+  Fetch fetch_history(const LidarScan& scan, StateHistory& out);
+  /// The slice lacks this instance's newest posterior (fuse-state has not applied it yet, or
+  /// restarted from an older one): apply it there, as fuse-state will (StateHistory::correct).
+  void bring_up_to_date(StateHistory& history, double slice_last_correction_t);
   void publish_skipped(const LidarScan& scan);
   void offer_to_map(double t);
   void resend_unacked(bool all);
@@ -56,11 +69,13 @@ class UpdateService {
   const std::uint64_t session_;
   LidarUpdater updater_;  ///< worker thread only
   double last_scan_t_ = -1.0;
+  std::optional<Posterior> last_posterior_;  ///< worker thread only: the newest SCAN_UPDATED published
   std::uint64_t observation_sequence_ = 0;
 
   std::mutex mutex_;  ///< guards what the DDS callbacks share with the worker
   std::condition_variable cv_;
-  std::deque<LidarScan> scans_;  ///< decoded, not yet checked (process() does)
+  ScanBacklog backlog_;  ///< decoded, not yet checked (process() does)
+  bool holding_ = false;  ///< the backlog waits for fuse-state
   std::map<std::uint64_t, fuse_msgs::MapChunk> chunks_;  ///< newest chunk of each key, kept while (re)syncing
   bool have_status_ = false;
   fuse_msgs::MapStatus status_;

@@ -74,6 +74,8 @@ TEST_F(QueryClient, MapsEveryStatus) {
                                              {qt::kTooOld, Status::too_old},
                                              {qt::kInFuture, Status::in_future},
                                              {qt::kNotInitialised, Status::not_initialised},
+                                             {qt::kRelocalizing, Status::relocalizing},
+                                             {qt::kLost, Status::lost},
                                              {150.0, Status::interpolated}};
   for (const auto& [t, status] : cases) {
     const Result r = client.at(t);
@@ -220,6 +222,8 @@ TEST(QueryClientAlone, NamesErrorsAndStatuses) {
   EXPECT_STREQ(to_string(Status::too_old), "too_old");
   EXPECT_STREQ(to_string(Status::in_future), "in_future");
   EXPECT_STREQ(to_string(Status::not_initialised), "not_initialised");
+  EXPECT_STREQ(to_string(Status::relocalizing), "relocalizing");
+  EXPECT_STREQ(to_string(Status::lost), "lost");
 }
 
 /// The client on Cyclone DDS against the Fast DDS server (skipped while that backend is absent).

@@ -18,6 +18,8 @@ inline constexpr double kCorrected = 101.0;
 inline constexpr double kTooOld = 1.0;
 inline constexpr double kInFuture = 200.0;
 inline constexpr double kNotInitialised = 0.0;
+inline constexpr double kRelocalizing = 102.0;
+inline constexpr double kLost = 103.0;
 inline constexpr double kNotReady = 50.0;
 inline constexpr double kThrows = 51.0;
 inline constexpr double kServerRefuses = 52.0;
@@ -97,6 +99,8 @@ class FakeQueryServer {
     if (t == qt::kTooOld) return fuse_msgs::STATUS_TOO_OLD;
     if (t == qt::kInFuture) return fuse_msgs::STATUS_IN_FUTURE;
     if (t == qt::kNotInitialised) return fuse_msgs::STATUS_NOT_INITIALISED;
+    if (t == qt::kRelocalizing) return fuse_msgs::STATUS_RELOCALIZING;
+    if (t == qt::kLost) return fuse_msgs::STATUS_LOST;
     return fuse_msgs::STATUS_INTERPOLATED;
   }
 

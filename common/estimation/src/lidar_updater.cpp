@@ -137,8 +137,10 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
   NavState x = prior.x;
   report.recovery = map_->size() > 0 && needs_recovery(prior.P);
   if (report.recovery) {
-    counters_.count("recovery_scans", "uncertain prior at t=" + std::to_string(scan.t_end) +
-                                          " (data gap or restart): re-localising against the map");
+    counters_.count("recovery_scans", fmt::format("uncertain prior at t={:.6f} (σ position {:.3f} m, rotation {:.3f} rad: "
+                                                  "a data gap or a restart): re-localising against the map",
+                                                  scan.t_end, std::sqrt(prior.P.block<3, 3>(Idx::kPos, Idx::kPos).trace()),
+                                                  std::sqrt(prior.P.block<3, 3>(Idx::kRot, Idx::kRot).trace())));
   }
   if (map_->size() > 0) {
     UpdateResult result;

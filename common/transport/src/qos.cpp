@@ -62,6 +62,16 @@ std::map<std::string, TopicQos> make_table() {
 
 }  // namespace
 
+TopicQos with_depth(TopicQos qos, int depth) {
+  constexpr int kMaxDepth = 1000000;
+  if (depth < 1 || depth > kMaxDepth) {
+    throw std::invalid_argument("transport: history depth " + std::to_string(depth) + " outside 1.." +
+                                std::to_string(kMaxDepth));
+  }
+  qos.depth = depth;
+  return qos;
+}
+
 const TopicQos& topic_qos(const std::string& topic) {
   static const std::map<std::string, TopicQos> table = make_table();
   auto it = table.find(topic);

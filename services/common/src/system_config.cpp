@@ -10,7 +10,8 @@ namespace fuse::service {
 void IngestConfig::load(ConfigNode& node) {
   node.get("mode", mode).get("rate", rate).get("lockstep_timeout_s", lockstep_timeout_s).get("start_wait_s", start_wait_s)
       .get("prefetch_events", prefetch_events).get("flush_timeout_s", flush_timeout_s)
-      .get("extra_readers", extra_readers);
+      .get("extra_readers", extra_readers).get("held_imu", held_imu).get("held_scans", held_scans)
+      .get("max_lateness_s", max_lateness_s);
   node.check(mode == "lockstep" || mode == "realtime", "mode", "must be lockstep or realtime");
   node.check(std::isfinite(rate) && rate > 0.0 && rate <= 100.0, "rate", "must be in (0, 100]");
   node.check(lockstep_timeout_s > 0.0 && lockstep_timeout_s <= 60.0, "lockstep_timeout_s", "must be in (0, 60] s");
@@ -18,19 +19,34 @@ void IngestConfig::load(ConfigNode& node) {
   node.check(prefetch_events >= 1 && prefetch_events <= 100000, "prefetch_events", "must be in [1, 100000]");
   node.check(flush_timeout_s >= 0.0 && flush_timeout_s <= 60.0, "flush_timeout_s", "must be in [0, 60] s");
   node.check(extra_readers >= 0 && extra_readers <= 64, "extra_readers", "must be in [0, 64]");
+  node.check(held_imu >= 1 && held_imu <= 200000, "held_imu", "must be in [1, 200000] samples");
+  node.check(held_scans >= 1 && held_scans <= 10000, "held_scans", "must be in [1, 10000] scans");
+  node.check(std::isfinite(max_lateness_s) && max_lateness_s >= 0.0 && max_lateness_s <= 60.0, "max_lateness_s",
+             "must be in [0, 60] s");
   node.finish();
 }
 
 void StateServiceConfig::load(ConfigNode& node) {
-  node.get("recovery_wait_s", recovery_wait_s).get("imu_buffer_s", imu_buffer_s);
+  node.get("recovery_wait_s", recovery_wait_s).get("imu_buffer_s", imu_buffer_s).get("history_s", history_s);
+  node.get("checkpoint_file", checkpoint_file).get("checkpoint_period_s", checkpoint_period_s);
+  node.get("lost_after_s", lost_after_s);
   node.check(recovery_wait_s >= 0.0 && recovery_wait_s <= 30.0, "recovery_wait_s", "must be in [0, 30] s");
-  node.check(imu_buffer_s >= 1.0 && imu_buffer_s <= 120.0, "imu_buffer_s", "must be in [1, 120] s");
+  node.check(imu_buffer_s >= 1.0 && imu_buffer_s <= 600.0, "imu_buffer_s", "must be in [1, 600] s");
+  node.check(std::isfinite(history_s) && history_s >= 0.5 && history_s <= 600.0, "history_s", "must be in [0.5, 600] s");
+  node.check(std::isfinite(checkpoint_period_s) && checkpoint_period_s >= 0.01 && checkpoint_period_s <= 600.0,
+             "checkpoint_period_s", "must be in [0.01, 600] s");
+  node.check(std::isfinite(lost_after_s) && lost_after_s > 0.0 && lost_after_s <= 600.0, "lost_after_s",
+             "must be in (0, 600] s");
   node.finish();
 }
 
 void UpdateServiceConfig::load(ConfigNode& node) {
   node.get("history_deadline_s", history_deadline_s).get("map_sync_timeout_s", map_sync_timeout_s);
   node.get("resend_after_s", resend_after_s).get("max_unacked", max_unacked);
+  node.get("max_backlog_s", max_backlog_s).get("compact_after", compact_after);
+  node.check(std::isfinite(max_backlog_s) && max_backlog_s >= 1.0 && max_backlog_s <= 600.0, "max_backlog_s",
+             "must be in [1, 600] s");
+  node.check(compact_after <= 10000, "compact_after", "must be at most 10000");
   node.check(history_deadline_s > 0.0 && history_deadline_s <= 30.0, "history_deadline_s", "must be in (0, 30] s");
   node.check(map_sync_timeout_s >= 0.0 && map_sync_timeout_s <= 60.0, "map_sync_timeout_s", "must be in [0, 60] s");
   node.check(resend_after_s > 0.0 && resend_after_s <= 60.0, "resend_after_s", "must be in (0, 60] s");

@@ -138,6 +138,8 @@ const char* to_string(Status status) {
     case Status::propagated: return "propagated";
     case Status::too_old: return "too_old";
     case Status::in_future: return "in_future";
+    case Status::relocalizing: return "relocalizing";
+    case Status::lost: return "lost";
   }
   return "unknown";
 }

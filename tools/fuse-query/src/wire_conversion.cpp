@@ -22,6 +22,8 @@ Status to_status(fuse_msgs::EstimateStatus status) {
     case fuse_msgs::STATUS_PROPAGATED: return Status::propagated;
     case fuse_msgs::STATUS_TOO_OLD: return Status::too_old;
     case fuse_msgs::STATUS_IN_FUTURE: return Status::in_future;
+    case fuse_msgs::STATUS_RELOCALIZING: return Status::relocalizing;
+    case fuse_msgs::STATUS_LOST: return Status::lost;
   }
   return Status::not_initialised;
 }

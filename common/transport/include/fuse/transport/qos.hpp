@@ -30,4 +30,7 @@ inline constexpr const char* kMapControl = "map/control";
 /// Throws std::invalid_argument for a topic not in the table.
 const TopicQos& topic_qos(const std::string& topic);
 
+/// `qos` with another KEEP_LAST depth (std::invalid_argument unless 1 <= depth <= 1000000).
+TopicQos with_depth(TopicQos qos, int depth);
+
 }  // namespace fuse::transport

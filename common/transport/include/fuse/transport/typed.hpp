@@ -74,6 +74,11 @@ class Publisher {
  public:
   Publisher(Participant& participant, const std::string& topic)
       : writer_(participant.create_writer(topic, type_support<T>(), topic_qos(topic))) {}
+  /// The topic's QoS with a writer history of `depth` samples instead of the table's: a
+  /// transient-local writer that holds more for late or restarted readers (KEEP_LAST depths of
+  /// writer and reader need not match).
+  Publisher(Participant& participant, const std::string& topic, int depth)
+      : writer_(participant.create_writer(topic, type_support<T>(), with_depth(topic_qos(topic), depth))) {}
   bool publish(const T& msg) { return writer_->write(serialize(msg)); }
   /// Publishes a sample already serialised as T (encapsulation header included), e.g. by a
   /// direct codec that writes the same CDR without building T (io::encode_scan).

@@ -13,6 +13,13 @@
 
 namespace fuse::service {
 
+/// Exit codes of every service (supervisors restart on 1 and signals, never on 2 or 4: restarting
+/// cannot fix them; the systemd units say RestartPreventExitStatus=2 4).
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitFailure = 1;  ///< a runtime failure (restarting may help)
+inline constexpr int kExitUsage = 2;    ///< usage or config error
+inline constexpr int kExitInput = 4;    ///< an input (recording, sensor, calibration file) that cannot be read
+
 struct ServiceArgs {
   std::string config_file;
   std::vector<std::string> overrides;

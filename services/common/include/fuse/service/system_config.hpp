@@ -28,6 +28,15 @@ struct IngestConfig {
   /// Readers of the IMU and scan topics beyond fuse-state's and fuse-update's (a recorder) that
   /// must be matched before the replay starts; a reader matched later misses the first samples.
   int extra_readers = 0;
+  /// What the IMU and scan writers hold for readers that join late or restart (transient-local
+  /// depth): a restarted fuse-state re-propagates from the held IMU, a restarted fuse-update
+  /// processes the held scans it has not answered. Sized for a 30 s outage: 60 s of 200 Hz IMU
+  /// (~1.6 MB) and 30 s of 10 Hz scans (~150 MB for 20k-point scans; lower it for denser sensors).
+  int held_imu = 12000;
+  int held_scans = 300;
+  /// Real-time replay: an event due longer ago than this is skipped (a restarted fuse-ingest
+  /// joining the schedule: its downtime is a data gap); a later one is published at once.
+  double max_lateness_s = 0.5;
   void load(ConfigNode& node);
 };
 
@@ -36,7 +45,18 @@ struct StateServiceConfig {
   /// corrections, transient-local), at most this long, before falling back to static
   /// initialisation from the IMU.
   double recovery_wait_s = 3.0;
-  double imu_buffer_s = 10.0;  ///< raw IMU kept for re-propagation after a recovered correction
+  double imu_buffer_s = 60.0;  ///< raw IMU kept for re-propagation after a recovered correction
+  /// fuse-state's state history in seconds (at least estimator.history.length_s): corrections of
+  /// scans that fuse-update held while fuse-state was down still land after a 30 s outage.
+  double history_s = 40.0;
+  /// fuse-state writes its newest corrected posterior here (atomically, at most every
+  /// checkpoint_period_s) and recovers from it after a restart when no newer correction is held
+  /// anywhere (fuse-update restarted with it). Empty: no checkpoint.
+  std::string checkpoint_file;
+  double checkpoint_period_s = 0.5;
+  /// No LiDAR correction for this long (sensor time) while IMU samples arrive: the estimate is
+  /// reported lost (IMU-only propagation drifts by metres within tens of seconds).
+  double lost_after_s = 5.0;
   void load(ConfigNode& node);
 };
 
@@ -45,6 +65,11 @@ struct UpdateServiceConfig {
   double map_sync_timeout_s = 3.0;  ///< at start-up: wait this long for the map server's chunks
   double resend_after_s = 1.0;      ///< re-send unacknowledged observations older than this
   std::size_t max_unacked = 2000;   ///< observations kept for re-sending (oldest dropped, counted)
+  /// Scans held (span of scan time) while fuse-state cannot answer (restarting, absent); beyond
+  /// it the oldest is dropped and counted. Processed in order once it answers again.
+  double max_backlog_s = 40.0;
+  /// Scans waiting behind this many are compacted to the points the LiDAR step keeps.
+  std::size_t compact_after = 5;
   void load(ConfigNode& node);
 };
 

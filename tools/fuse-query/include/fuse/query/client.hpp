@@ -56,6 +56,13 @@ enum class Status {
   propagated,       ///< t lies past the last correction: IMU propagation only
   too_old,          ///< t is older than the history holds
   in_future,        ///< t is newer than the latest IMU sample
+  /// The estimator's own state, whatever t: its prior is uncertain (after a restart, a data gap
+  /// or a clock step) and scans are being re-localised against the map. The pose is the best
+  /// guess so far; do not steer by it.
+  relocalizing,
+  /// The estimator has no usable estimate (nothing to recover from, re-localisation keeps
+  /// failing, or no LiDAR correction for a while although data arrives). It keeps trying.
+  lost,
 };
 
 /// The state of the IMU body in the world frame at time t.
