@@ -25,8 +25,7 @@ double unix_now() {
 IngestService::IngestService(const SystemConfig& config, transport::Participant& participant, IngestOptions options)
     : config_(config),
       options_(std::move(options)),
-      source_(std::make_unique<io::PrefetchSource>(open_ingest_input(options_.input),
-                                                static_cast<std::size_t>(config.ingest.prefetch_events))),
+      source_(std::make_unique<io::PrefetchSource>(open_source(), static_cast<std::size_t>(config.ingest.prefetch_events))),
       counters_(logger(kName)),
       imu_(participant, transport::topics::kImu, config.ingest.held_imu),
       scans_(participant, transport::topics::kLidarScan, config.ingest.held_scans) {
@@ -52,6 +51,31 @@ IngestService::IngestService(const SystemConfig& config, transport::Participant&
     logger(kName)->info("replaying {} ({}{})", source_->describe(), options_.mode,
                         options_.mode == "realtime" ? ", rate " + std::to_string(options_.rate) : "");
   }
+}
+
+bool IngestService::resuming() const {
+  return options_.mode == "realtime" && !options_.input.live() && options_.start_wall &&
+         *options_.start_wall < unix_now();
+}
+
+std::unique_ptr<io::SensorSource> IngestService::open_source() {
+  std::unique_ptr<io::SensorSource> source = open_ingest_input(options_.input);
+  if (!resuming()) return source;
+  // Joining a schedule that has run for a while: read the first event (the schedule's origin),
+  // then jump to where the schedule is now. Reading and dropping everything before took seconds
+  // into a long recording, all of it a data gap that a restarted sensor driver would not have.
+  io::SensorEvent first;
+  if (!source->next(first)) return source;
+  t0_ = first.arrival_time();
+  const double now_t = *t0_ + (unix_now() - *options_.start_wall) * options_.rate - config_.ingest.max_lateness_s;
+  if (now_t > *t0_ && source->seek(now_t)) {
+    logger(kName)->info("resuming the schedule at t={:.3f} ({:.1f} s into the recording): the events before it are "
+                        "a data gap",
+                        now_t, now_t - *t0_);
+  } else {
+    first_event_ = std::move(first);
+  }
+  return source;
 }
 
 bool IngestService::wait_for_pipeline() {
@@ -120,8 +144,7 @@ int IngestService::run() {
   auto log = logger(kName);
   // A restarted real-time replay joins a schedule already running: it plays at once (the IMU
   // topic is transient-local, so what it publishes before discovery completes still arrives).
-  const bool resuming = options_.mode == "realtime" && options_.start_wall && *options_.start_wall < unix_now();
-  if (!resuming && !wait_for_pipeline()) {
+  if (!resuming() && !wait_for_pipeline()) {
     if (stop_requested()) return 0;
     log->warn("fuse-state / fuse-update not ready after {:.1f} s: replaying anyway", config_.ingest.start_wait_s);
     std::lock_guard<std::mutex> lock(mutex_);
@@ -143,7 +166,7 @@ int IngestService::run() {
   if (resume_after > 0.0) log->info("resuming after t={:.3f} (the last answered scan)", resume_after);
 
   io::SensorEvent ev;
-  std::optional<double> t0;
+  std::optional<double> t0 = t0_;
   double wall0 = options_.start_wall.value_or(unix_now());
   bool pending = false;  // lockstep: a scan awaits its answer
   double pending_t = 0.0;
@@ -151,7 +174,13 @@ int IngestService::run() {
   std::size_t skipped = 0;
   bool confirmed = !lockstep;  // lockstep: the IMU readers have acknowledged the first sample
   try {
-    while (!stop_requested() && source_->next(ev)) {
+    auto next_event = [this](io::SensorEvent& e) {
+      if (!first_event_) return source_->next(e);
+      e = std::move(*first_event_);
+      first_event_.reset();
+      return true;
+    };
+    while (!stop_requested() && next_event(ev)) {
       notifier().watchdog();
       const double t = ev.arrival_time();
       if (!t0) t0 = t;

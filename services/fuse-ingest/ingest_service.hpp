@@ -53,8 +53,16 @@ class IngestService {
   void flush();
   HealthSnapshot health();
 
+  /// A real-time replay restarted after its --start-wall: positions the source where the
+  /// schedule is now (seeking, when the format can, instead of reading the past), notes the
+  /// recording's first time and keeps the first event read when it cannot seek.
+  std::unique_ptr<io::SensorSource> open_source();
+  bool resuming() const;
+
   SystemConfig config_;
   IngestOptions options_;
+  std::optional<double> t0_;                  ///< the recording's first event time, when read ahead
+  std::optional<io::SensorEvent> first_event_;  ///< read ahead and not skipped by a seek
   std::unique_ptr<io::SensorSource> source_;
 
   std::mutex mutex_;

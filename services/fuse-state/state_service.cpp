@@ -76,7 +76,9 @@ StateService::StateService(const SystemConfig& config, transport::Participant& p
     std::string why;
     checkpoint_ = read_checkpoint(file, why);
     if (checkpoint_) {
-      logger(kName)->info("checkpoint {} holds the posterior at t={:.3f}", file, checkpoint_->t);
+      map_drift_ = checkpoint_->map_drift;
+      map_drift_t_ = checkpoint_->posterior.t;
+      logger(kName)->info("checkpoint {} holds the posterior at t={:.3f}", file, checkpoint_->posterior.t);
     } else {
       logger(kName)->info("{}", why);
     }
@@ -178,9 +180,37 @@ std::optional<fuse_msgs::StateEstimate> StateService::feed(const ImuSample& imu)
     counters_.add("odometry_deferred_catching_up");
     return std::nullopt;
   }
-  fuse_msgs::StateEstimate e = to_estimate(tracker_.history().query(tracker_.history().newest_time()), ++odometry_sequence_);
+  fuse_msgs::StateEstimate e = estimate(tracker_.history().query(tracker_.history().newest_time()), ++odometry_sequence_);
   mark(tracking(), e);
   return e;
+}
+
+fuse_msgs::StateEstimate StateService::estimate(const StateQuery& q, std::uint64_t sequence) const {
+  fuse_msgs::StateEstimate e = to_estimate(q, sequence);
+  if (!q.ok()) return e;
+  // Position in the world frame as it is; the rotation block is a body-frame perturbation.
+  PoseCovariance add = map_drift_;
+  add.bottomRightCorner<3, 3>() = q.x.R.transpose() * map_drift_.bottomRightCorner<3, 3>() * q.x.R;
+  add.topRightCorner<3, 3>().setZero();
+  add.bottomLeftCorner<3, 3>().setZero();
+  for (int r = 0; r < 6; ++r) {
+    for (int c = 0; c < 6; ++c) e.pose_covariance()[static_cast<std::size_t>(r * 6 + c)] += add(r, c);
+  }
+  return e;
+}
+
+void StateService::count_map_drift(const fuse_msgs::Correction& msg) {
+  if (msg.t() <= map_drift_t_) return;  // counted before (a re-delivered correction, the checkpoint)
+  PoseCovariance d;
+  for (int r = 0; r < 6; ++r) {
+    for (int c = 0; c < 6; ++c) d(r, c) = msg.map_drift()[static_cast<std::size_t>(r * 6 + c)];
+  }
+  if (!d.allFinite() || d.diagonal().minCoeff() < 0.0) {
+    counters_.count("map_drift_invalid", "correction at t=" + std::to_string(msg.t()) + ": map drift not a covariance, ignored");
+    return;
+  }
+  map_drift_ += d;
+  map_drift_t_ = msg.t();
 }
 
 void StateService::go_live() {
@@ -189,8 +219,8 @@ void StateService::go_live() {
   // The newest posterior held anywhere: fuse-update's corrections or our own checkpoint.
   std::optional<Posterior> best = pending_recovery_;
   std::string source = "the correction";
-  if (checkpoint_ && (!best || checkpoint_->t > best->t)) {
-    best = checkpoint_;
+  if (checkpoint_ && (!best || checkpoint_->posterior.t > best->t)) {
+    best = checkpoint_->posterior;
     source = "the checkpoint";
   }
   pending_recovery_.reset();
@@ -284,7 +314,8 @@ void StateService::on_correction(const fuse_msgs::Correction& msg) {
         h.correct(post.t, post.x, post.P);
         last_applied_correction_t_ = post.t;
         counters_.add("corrections_applied");
-        if (checkpoint_writer_) checkpoint_writer_->offer(post);
+        count_map_drift(msg);
+        if (checkpoint_writer_) checkpoint_writer_->offer(Checkpoint{post, map_drift_});
         if (restored_ && msg.tracking() == fuse_msgs::TRACKING_OK) restored_ = false;
       }
     }
@@ -298,7 +329,7 @@ void StateService::on_correction(const fuse_msgs::Correction& msg) {
                   << r.z() << ' ' << r.w() << '\n';
       trajectory_.flush();
     }
-    corrected = to_estimate(q, msg.scan_sequence());
+    corrected = estimate(q, msg.scan_sequence());
     corrected->status(fuse_msgs::STATUS_CORRECTED);
   }
   corrected_.publish(*corrected);
@@ -376,7 +407,7 @@ void StateService::on_query(const fuse_msgs::QueryRequest& req, fuse_msgs::Query
   }
   StateQuery q = tracker_.history().query(t);
   if (!have_state) q.status = QueryStatus::kNotInitialised;
-  rep.estimate(to_estimate(q, 0));
+  rep.estimate(estimate(q, 0));
   mark(status, rep.estimate());
 }
 

@@ -14,6 +14,10 @@
 // and its re-propagation is lazy (StateHistory), so catching up costs one pass over the tail.
 // Only with no posterior at all does it initialise statically from the IMU, as on a first start.
 //
+// Reported covariance: the filter's P is that of the pose relative to the map; the map frame's
+// own uncertainty, accumulated from the corrections (Correction.map_drift, ScanReport::map_drift)
+// and kept in the checkpoint, is added to the pose covariance of every estimate published.
+//
 // Tracking status, in every query reply and on health: tracking, relocalizing (restored from an
 // old posterior and catching up, or fuse-update reports scans being re-localised), lost (no
 // state while the sensor moves, fuse-update reports lost, or no LiDAR correction for
@@ -58,6 +62,9 @@ class StateService {
   bool catching_up() const;
   /// The status as of now (lock held); logs and counts changes.
   Tracking tracking();
+  /// An estimate for planners: the state at q with the map frame's uncertainty added.
+  fuse_msgs::StateEstimate estimate(const StateQuery& q, std::uint64_t sequence) const;
+  void count_map_drift(const fuse_msgs::Correction& msg);
   HealthSnapshot health();
   void malformed(const std::string& topic, const std::string& why);
 
@@ -68,7 +75,9 @@ class StateService {
   std::deque<ImuSample> imu_buffer_;  ///< raw IMU of the last state.imu_buffer_s seconds
   bool live_ = false;                 ///< false during the recovery wait
   std::optional<Posterior> pending_recovery_;
-  std::optional<Posterior> checkpoint_;  ///< read at start-up
+  std::optional<Checkpoint> checkpoint_;  ///< read at start-up
+  PoseCovariance map_drift_ = PoseCovariance::Zero();  ///< the map frame's accumulated uncertainty
+  double map_drift_t_ = -1.0;                          ///< newest correction counted in it
   std::unique_ptr<CheckpointWriter> checkpoint_writer_;
   std::uint64_t odometry_sequence_ = 0;
   double last_applied_correction_t_ = -1.0;

@@ -358,6 +358,9 @@ UpdateService::Outcome UpdateService::process(LidarScan& scan) {
   c.update_ms(report.ms_total);
   c.converged(report.converged);
   c.fit(report.fit);
+  for (int r = 0; r < 6; ++r) {
+    for (int k = 0; k < 6; ++k) c.map_drift()[static_cast<std::size_t>(r * 6 + k)] = report.map_drift(r, k);
+  }
   const bool relocalizing =
       report.recovery && (!report.converged || report.fit < config_.estimator.recovery.min_fit);
   c.tracking(relocalizing ? fuse_msgs::TRACKING_RELOCALIZING : fuse_msgs::TRACKING_OK);

@@ -228,6 +228,62 @@ TEST(McapSource, TiesPutImuFirst) {
   EXPECT_EQ(kinds, (std::vector<K>{K::kImu, K::kImu, K::kLidar, K::kImu}));
 }
 
+// seek(t) continues with the first event at or after t, as reading and dropping everything
+// before it would, and reads only the chunks from there (a restarted real-time replay).
+TEST(McapSource, SeekContinuesAtTheFirstEventFromThatTime) {
+  TempDir dir;
+  const std::string path = dir.file("seek.mcap");
+  RecordingWriterConfig config;
+  config.chunk_size_bytes = 16 * 1024;
+  {
+    RecordingWriter w(path, config);
+    for (int i = 0; i <= 2000; ++i) {
+      w.write(make_imu(100.0 + 0.005 * i, i));
+      if (i % 20 == 0 && i > 0) w.write(make_scan(100.0 + 0.005 * (i - 20), 100.0 + 0.005 * i, i / 20, 300));
+    }
+  }
+  const double t = 106.0025;  // between two IMU samples
+  std::vector<SensorEvent> expected;
+  {
+    auto all = open_sensor_source(path);
+    SensorEvent e;
+    while (all->next(e)) {
+      if (e.arrival_time() >= t) expected.push_back(e);
+    }
+  }
+  auto source = open_sensor_source(path);
+  SensorEvent e;
+  ASSERT_TRUE(source->next(e));  // read a little first, as ingest does to find the first time
+  ASSERT_TRUE(source->seek(t));
+  std::size_t n = 0;
+  while (source->next(e)) {
+    ASSERT_LT(n, expected.size());
+    ASSERT_EQ(e.kind, expected[n].kind) << n;
+    EXPECT_EQ(e.arrival_time(), expected[n].arrival_time()) << n;
+    ++n;
+  }
+  EXPECT_EQ(n, expected.size());
+  EXPECT_EQ(n, 800u + 40u);  // 4 s of 200 Hz IMU and 10 Hz scans
+  EXPECT_TRUE(source->stats().rejected.empty()) << "nothing refused as out of order after the jump";
+  McapReader reader(path);
+  ASSERT_TRUE(reader.has_summary());
+  McapReadOptions from_t;
+  from_t.start_time = 106'002'500'000ull;
+  reader.start(from_t);
+  McapMessage m;
+  while (reader.next(m)) {
+  }
+  reader.start();
+  std::size_t all_blocks = 0;
+  while (reader.next(m)) {
+  }
+  all_blocks = reader.blocks_loaded();
+  reader.start(from_t);
+  while (reader.next(m)) {
+  }
+  EXPECT_LT(reader.blocks_loaded(), all_blocks * 6 / 10) << "the chunks before t are not read";
+}
+
 // --- Salvage of truncated recordings --------------------------------------------------------
 
 /// A recording of 2 s (200 Hz IMU, 10 Hz scans of 300 points) in chunks of about 16 KiB.

@@ -46,11 +46,16 @@ Posterior some_posterior(double t) {
 
 TEST(StateCheckpoint, RoundTripKeepsThePosteriorExactly) {
   const fs::path file = scratch("roundtrip.ckpt");
-  const Posterior in = some_posterior(1234.5678);
-  write_checkpoint(file, in);
+  Checkpoint written;
+  written.posterior = some_posterior(1234.5678);
+  written.map_drift = written.posterior.P.topLeftCorner<6, 6>() * 0.25;
+  const Posterior& in = written.posterior;
+  write_checkpoint(file, written);
   std::string why;
-  const auto out = read_checkpoint(file, why);
-  ASSERT_TRUE(out) << why;
+  const auto read = read_checkpoint(file, why);
+  ASSERT_TRUE(read) << why;
+  EXPECT_EQ(read->map_drift, written.map_drift);
+  const Posterior* out = &read->posterior;
   EXPECT_EQ(out->t, in.t);
   EXPECT_EQ(out->x.p, in.x.p);
   EXPECT_LT((out->x.R - in.x.R).norm(), 1e-15);  // travels as a quaternion
@@ -68,7 +73,7 @@ TEST(StateCheckpoint, AnUntrustworthyFileIsRefusedWithTheReason) {
   EXPECT_NE(why.find("no checkpoint"), std::string::npos) << why;
 
   const fs::path file = scratch("damaged.ckpt");
-  write_checkpoint(file, some_posterior(10.0));
+  write_checkpoint(file, Checkpoint{some_posterior(10.0), PoseCovariance::Identity()});
   std::string bytes;
   {
     std::ifstream in(file, std::ios::binary);
@@ -104,16 +109,16 @@ TEST(StateCheckpoint, WriterKeepsTheNewestAndCountsFailures) {
   const fs::path file = scratch("writer.ckpt");
   {
     CheckpointWriter writer(file, 0.01);
-    for (int i = 1; i <= 50; ++i) writer.offer(some_posterior(i));
-    writer.offer(some_posterior(3.0));  // older than what was offered: ignored
+    for (int i = 1; i <= 50; ++i) writer.offer(Checkpoint{some_posterior(i), PoseCovariance::Zero()});
+    writer.offer(Checkpoint{some_posterior(3.0), PoseCovariance::Zero()});  // older than what was offered: ignored
   }  // the destructor writes what is pending
   std::string why;
   const auto out = read_checkpoint(file, why);
   ASSERT_TRUE(out) << why;
-  EXPECT_EQ(out->t, 50.0);
+  EXPECT_EQ(out->posterior.t, 50.0);
 
   CheckpointWriter broken(scratch("no-such-dir") / "x.ckpt", 0.01);
-  broken.offer(some_posterior(1.0));
+  broken.offer(Checkpoint{some_posterior(1.0), PoseCovariance::Zero()});
   for (int i = 0; i < 500 && broken.failures() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   EXPECT_EQ(broken.failures(), 1u);
   EXPECT_NE(broken.last_error().find("cannot write checkpoint"), std::string::npos) << broken.last_error();

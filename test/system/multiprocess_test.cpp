@@ -7,10 +7,14 @@
 //     before the kill is in the map afterwards, and the error stays close to the uninterrupted
 //     run's;
 //   - fuse-ingest killed and restarted during a real-time replay is a data gap that fuse-state
-//     flags and the estimate survives.
+//     flags and the estimate survives;
+//   - fuse-state and fuse-update killed together while moving, and fuse-state down for 8 s,
+//     during a real-time replay: the scans of the outage are held and answered, every scan gets a
+//     pose, and the covariance fuse-state reports after the restart covers the true error.
 // DDS domains 60..79 belong to this file.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <cstdlib>
@@ -23,6 +27,8 @@
 #include <thread>
 #include <vector>
 
+#include "fuse/eval/alignment.hpp"
+#include "fuse/eval/association.hpp"
 #include "fuse/eval/evaluate.hpp"
 #include "fuse/eval/trajectory.hpp"
 #include "fuse/launch/process.hpp"
@@ -102,7 +108,8 @@ class Pipeline {
     argv.insert(argv.end(), common_.begin(), common_.end());
     if (service == "fuse-map") argv.insert(argv.end(), {"--map-dir", dir_ + "/map"});
     if (service == "fuse-state") {
-      argv.insert(argv.end(), {"--trajectory", trajectory(), "--calibration-from", input + "/recording.mcap"});
+      argv.insert(argv.end(), {"--trajectory", trajectory(), "--calibration-from", input + "/recording.mcap", "--set",
+                               "state.checkpoint_file=" + dir_ + "/state.checkpoint"});
     }
     if (service == "fuse-ingest") argv.insert(argv.end(), {"--input", input + "/recording.mcap"});
     argv.insert(argv.end(), more.begin(), more.end());
@@ -209,6 +216,68 @@ class StatusWatch {
   fuse_msgs::MapStatus last_;
   std::unique_ptr<transport::Subscriber<fuse_msgs::MapStatus>> sub_;
 };
+
+/// Every state/corrected sample (pose and its covariance) as a test-side subscriber sees it.
+class CorrectedWatch {
+ public:
+  struct Sample {
+    double t;
+    Eigen::Vector3d p;
+    Eigen::Matrix3d P;  ///< position covariance
+  };
+  explicit CorrectedWatch(int domain) {
+    transport::TransportConfig tc;
+    tc.domain_id = domain;
+    participant_ = transport::make_participant(tc, "test-corrected");
+    sub_ = std::make_unique<transport::Subscriber<fuse_msgs::StateEstimate>>(
+        *participant_, transport::topics::kCorrected, [this](const fuse_msgs::StateEstimate& e) {
+          Sample s{e.t(), {e.pose().position().x(), e.pose().position().y(), e.pose().position().z()}, {}};
+          for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c) s.P(r, c) = e.pose_covariance()[static_cast<std::size_t>(r * 6 + c)];
+          std::lock_guard<std::mutex> lock(mutex_);
+          samples_.push_back(s);
+        });
+  }
+  std::vector<Sample> samples() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return samples_;
+  }
+
+ private:
+  std::unique_ptr<transport::Participant> participant_;
+  std::mutex mutex_;
+  std::vector<Sample> samples_;
+  std::unique_ptr<transport::Subscriber<fuse_msgs::StateEstimate>> sub_;
+};
+
+/// The fraction of the samples after t_from whose position error against the truth (the whole
+/// trajectory SE(3)-aligned to it) lies within the 3σ ellipsoid of the reported covariance
+/// (Mahalanobis distance ≤ 3; for a consistent Gaussian 97 % do).
+double covered_fraction(const std::string& data, const std::vector<StampedPose>& trajectory,
+                        const std::vector<CorrectedWatch::Sample>& samples, double t_from, std::size_t* n) {
+  const auto truth = eval::read_tum(data + "/groundtruth.tum");
+  const auto matched = eval::associate_by_time(truth, trajectory);
+  const eval::Similarity3 T = eval::align(matched.reference, matched.estimate, eval::AlignmentMode::kSE3);
+  std::vector<StampedPose> estimates;
+  for (const auto& s : samples) {
+    if (s.t >= t_from) estimates.push_back(StampedPose{s.t, s.p, Eigen::Quaterniond::Identity()});
+  }
+  *n = 0;
+  if (estimates.empty()) return 0.0;
+  std::sort(estimates.begin(), estimates.end(), [](const auto& a, const auto& b) { return a.t < b.t; });
+  estimates.erase(std::unique(estimates.begin(), estimates.end(), [](const auto& a, const auto& b) { return a.t == b.t; }),
+                  estimates.end());
+  const auto pairs = eval::associate_by_time(truth, estimates);
+  std::size_t covered = 0;
+  for (std::size_t i = 0; i < pairs.estimate.size(); ++i) {
+    const Eigen::Vector3d e = T(pairs.estimate[i].p) - pairs.reference[i].p;
+    const auto it = std::find_if(samples.begin(), samples.end(), [&](const auto& s) { return s.t == pairs.estimate[i].t; });
+    const Eigen::Matrix3d P = T.rotation * it->P * T.rotation.transpose();
+    covered += e.dot(P.ldlt().solve(e)) <= 9.0 ? 1 : 0;
+  }
+  *n = pairs.estimate.size();
+  return static_cast<double>(covered) / static_cast<double>(*n);
+}
 
 class MultiProcess : public ::testing::Test {
  protected:
@@ -357,6 +426,73 @@ TEST_F(MultiProcess, IngestKilledInRealTimeIsADataGapTheEstimatorSurvives) {
   const double ate_m = ate(kShortData, traj);
   std::cout << "ATE with the fuse-ingest restart's data gap: " << ate_m << " m\n";
   EXPECT_LT(ate_m, 0.3);
+}
+
+/// A real-time replay of the short recording with `kill` done once the trajectory has 60 poses
+/// (the sensor walks); returns the trajectory fuse-state wrote.
+std::vector<StampedPose> realtime_run(Pipeline& p, const std::function<void()>& kill) {
+  p.start_backend();
+  const double start_wall =
+      std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count() + 3.0;
+  p.start("fuse-ingest", kShortData, {"--mode", "realtime", "--start-wall", std::to_string(start_wall)});
+  EXPECT_TRUE(p.wait_for_lines(60, 60s));
+  kill();
+  EXPECT_EQ(p.wait_ingest(kReplayTimeout), 0) << p.log("fuse-ingest", 1);
+  EXPECT_TRUE(p.stop_all());
+  return eval::read_tum(p.trajectory());
+}
+
+/// Poses of the uninterrupted single-process run over the short recording.
+std::size_t short_run_poses() {
+  static const std::size_t n = run_offline(load_runner_config(kConfig), kShortData + "/recording.mcap", "").trajectory.size();
+  return n;
+}
+
+TEST_F(MultiProcess, StateAndUpdateKilledTogetherWhileMovingComeBackWithAnHonestCovariance) {
+  ASSERT_TRUE(fs::exists(kShortData + "/recording.mcap")) << "fixture missing: " << kShortData;
+  const int domain = 68;
+  CorrectedWatch watch(domain);
+  Pipeline p("kill-state-and-update", domain);
+  double restarted_at = 0.0;  // sensor time of the newest pose before the restart
+  const auto traj = realtime_run(p, [&] {
+    p.kill("fuse-state");
+    p.kill("fuse-update");
+    restarted_at = eval::read_tum(p.trajectory()).back().t;
+    std::this_thread::sleep_for(2s);  // an outage while the sensor moves on
+    p.start("fuse-update");
+    p.start("fuse-state");
+  });
+  // fuse-update's corrections died with it: fuse-state comes back from its own checkpoint, and
+  // the scans of the outage, held by fuse-ingest's writer, are answered after it.
+  EXPECT_NE(p.log("fuse-state", 2).find("recovered from the checkpoint"), std::string::npos) << p.log("fuse-state", 2);
+  EXPECT_GE(static_cast<double>(traj.size()), 0.95 * static_cast<double>(short_run_poses()));
+  const double ate_m = ate(kShortData, traj);
+  std::size_t n = 0;
+  const double covered = covered_fraction(kShortData, traj, watch.samples(), restarted_at, &n);
+  std::cout << "state + update killed together: " << traj.size() << " poses (fuse-run " << short_run_poses()
+            << "), ATE " << ate_m << " m, " << 100.0 * covered << " % of " << n
+            << " poses after the restart within 3 sigma of the truth\n";
+  EXPECT_LT(ate_m, 0.1);
+  EXPECT_GT(n, 50u);
+  EXPECT_GE(covered, 0.95);
+}
+
+TEST_F(MultiProcess, StateDownForEightSecondsCatchesUpOnTheHeldScans) {
+  ASSERT_TRUE(fs::exists(kShortData + "/recording.mcap")) << "fixture missing: " << kShortData;
+  Pipeline p("state-down-8s", 69);
+  const auto traj = realtime_run(p, [&] {
+    p.kill("fuse-state");
+    std::this_thread::sleep_for(8s);
+    p.start("fuse-state");
+  });
+  // fuse-update held the scans of the outage and processed them once fuse-state answered.
+  EXPECT_NE(p.log("fuse-update", 1).find("holding the scans"), std::string::npos) << p.log("fuse-update", 1);
+  EXPECT_NE(p.log("fuse-state", 2).find("recovered from the correction"), std::string::npos) << p.log("fuse-state", 2);
+  EXPECT_GE(static_cast<double>(traj.size()), 0.95 * static_cast<double>(short_run_poses()));
+  const double ate_m = ate(kShortData, traj);
+  std::cout << "fuse-state down 8 s: " << traj.size() << " poses (fuse-run " << short_run_poses() << "), ATE " << ate_m
+            << " m\n";
+  EXPECT_LT(ate_m, 0.1);
 }
 
 }  // namespace

@@ -187,6 +187,19 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
     const MapUpdateStats map_stats =
         map_policy_->apply(points_W_, *map_, have_nearest ? &constraints_.nearest_dist2 : nullptr);
     report.map_inserted = map_stats.inserted;
+    if (report.updated && map_stats.inserted > 0 && !points_W_.empty()) {
+      // Map-frame drift: the filter's covariance P is that of the pose relative to the map, whose
+      // points are taken as exact. The points this scan adds sit where its posterior put them, so
+      // new space inherits the posterior's error: var(map_new) = var(map_old) + P_pose. A scan of
+      // which a fraction f is new adds f·P_pose to the map frame's uncertainty (a random walk over
+      // explored space; revisited space adds nothing). Reported beside P to planners, never fed
+      // back into the filter.
+      const StateQuery post = history.query(scan.t_end);
+      const double f = static_cast<double>(map_stats.inserted) / static_cast<double>(points_W_.size());
+      report.map_drift.topLeftCorner<3, 3>() = f * post.P.block<3, 3>(Idx::kPos, Idx::kPos);
+      report.map_drift.bottomRightCorner<3, 3>() =
+          f * post.x.R * post.P.block<3, 3>(Idx::kRot, Idx::kRot) * post.x.R.transpose();
+    }
   }
   report.map_points = map_->size();
   report.ms_map = ms_since(t_stage);

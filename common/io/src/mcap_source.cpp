@@ -133,6 +133,16 @@ bool McapSource::fill() {
   return true;
 }
 
+bool McapSource::seek(double t) {
+  if (!std::isfinite(t) || t < 0.0 || reader_.salvage_mode()) return false;
+  McapReadOptions options;
+  options.start_time = static_cast<std::uint64_t>(std::llround(t * 1e9));
+  reader_.start(options);
+  lookahead_.reset();
+  ready_.clear();
+  return true;
+}
+
 bool McapSource::next(SensorEvent& out) {
   for (;;) {
     while (ready_.empty()) {

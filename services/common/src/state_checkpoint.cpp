@@ -27,7 +27,7 @@ std::uint32_t get_u32(const char* p) {
 }
 }  // namespace
 
-std::optional<Posterior> read_checkpoint(const std::filesystem::path& file, std::string& why) {
+std::optional<Checkpoint> read_checkpoint(const std::filesystem::path& file, std::string& why) {
   std::ifstream in(file, std::ios::binary);
   if (!in) {
     why = "no checkpoint at " + file.string();
@@ -49,22 +49,48 @@ std::optional<Posterior> read_checkpoint(const std::filesystem::path& file, std:
     why = file.string() + ": checkpoint damaged (length or CRC mismatch)";
     return std::nullopt;
   }
+  constexpr std::size_t kDriftBytes = 36 * sizeof(double);
+  if (length < kDriftBytes) {
+    why = file.string() + ": checkpoint too short";
+    return std::nullopt;
+  }
+  const char* payload = bytes.data() + kHeaderSize;
+  const std::size_t message_length = length - kDriftBytes;
   fuse_msgs::Correction msg;
   std::string error;
-  if (!transport::deserialize(reinterpret_cast<const std::uint8_t*>(bytes.data() + kHeaderSize), length, msg, &error)) {
+  if (!transport::deserialize(reinterpret_cast<const std::uint8_t*>(payload), message_length, msg, &error)) {
     why = file.string() + ": " + error;
     return std::nullopt;
   }
+  Checkpoint c;
   try {
-    return from_msg(msg);
+    c.posterior = from_msg(msg);
   } catch (const InvalidSample& e) {
     why = file.string() + ": " + e.what();
     return std::nullopt;
   }
+  for (int i = 0; i < 36; ++i) {
+    std::uint64_t bits = 0;
+    for (int b = 0; b < 8; ++b) bits |= std::uint64_t{static_cast<unsigned char>(payload[message_length + 8 * i + b])} << (8 * b);
+    double v;
+    std::memcpy(&v, &bits, sizeof v);
+    c.map_drift(i / 6, i % 6) = v;
+  }
+  if (!c.map_drift.allFinite()) {
+    why = file.string() + ": map drift is not finite";
+    return std::nullopt;
+  }
+  return c;
 }
 
-void write_checkpoint(const std::filesystem::path& file, const Posterior& posterior) {
-  const transport::Bytes payload = transport::serialize(to_msg(posterior));
+void write_checkpoint(const std::filesystem::path& file, const Checkpoint& checkpoint) {
+  transport::Bytes payload = transport::serialize(to_msg(checkpoint.posterior));
+  for (int i = 0; i < 36; ++i) {
+    std::uint64_t bits = 0;
+    const double v = checkpoint.map_drift(i / 6, i % 6);
+    std::memcpy(&bits, &v, sizeof v);
+    for (int b = 0; b < 8; ++b) payload.push_back(static_cast<std::uint8_t>((bits >> (8 * b)) & 0xFFu));
+  }
   std::string bytes(kMagic, sizeof(kMagic));
   put_u32(bytes, kVersion);
   put_u32(bytes, static_cast<std::uint32_t>(payload.size()));
@@ -95,11 +121,11 @@ CheckpointWriter::~CheckpointWriter() {
   thread_.join();
 }
 
-void CheckpointWriter::offer(const Posterior& posterior) {
+void CheckpointWriter::offer(const Checkpoint& checkpoint) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (pending_ && pending_->t > posterior.t) return;
-    pending_ = posterior;
+    if (pending_ && pending_->posterior.t > checkpoint.posterior.t) return;
+    pending_ = checkpoint;
   }
   cv_.notify_all();
 }
@@ -123,12 +149,12 @@ void CheckpointWriter::run() {
   for (;;) {
     cv_.wait(lock, [this] { return stop_ || pending_.has_value(); });
     if (!pending_) return;  // stopping with nothing left to write
-    const Posterior posterior = *pending_;
+    const Checkpoint checkpoint = *pending_;
     pending_.reset();
     lock.unlock();
     std::string error;
     try {
-      write_checkpoint(file_, posterior);
+      write_checkpoint(file_, checkpoint);
     } catch (const std::exception& e) {
       error = e.what();
     }

@@ -40,6 +40,11 @@ struct ScanReport {
   double fit = 0.0;  ///< re-localisation: 1 − mean truncated residual cost (min(r², τ²)/τ²) of the scan's points
   double min_eig_translation = 0.0, min_eig_rotation = 0.0, min_gamma = 1.0, min_eig_ratio = 1.0;
   std::size_t map_points = 0, map_inserted = 0;
+  /// This scan's contribution to the uncertainty of the map frame itself, in the world frame and
+  /// block-diagonal (position; rotation as a world-frame perturbation): f·P with f the fraction of
+  /// its points that went into the map. The filter's P is relative to the map, and newly mapped
+  /// space inherits the pose's error (see LidarUpdater::process). Zero when nothing was mapped.
+  Eigen::Matrix<double, 6, 6> map_drift = Eigen::Matrix<double, 6, 6>::Zero();
   double ms_deskew = 0.0, ms_association = 0.0, ms_update = 0.0, ms_map = 0.0, ms_total = 0.0;
 };
 

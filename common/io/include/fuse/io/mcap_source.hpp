@@ -21,6 +21,8 @@ class McapSource : public SensorSource {
   std::optional<Eigen::Isometry3d> T_imu_lidar() const override { return T_imu_lidar_; }
   const SourceStats& stats() const override { return validator_.stats(); }
   std::string describe() const override;
+  /// Restarts the reader at log time t: chunks that end before t are not read.
+  bool seek(double t) override;
 
  private:
   /// Reads every message sharing the next log time, decoded, IMU before scans.

@@ -46,6 +46,13 @@ class SensorSource {
   virtual std::optional<Eigen::Isometry3d> T_imu_lidar() const = 0;
   virtual const SourceStats& stats() const = 0;
   virtual std::string describe() const = 0;
+  /// Positions the source so that next() continues with the first event arriving at or after t
+  /// (seconds), without reading what lies before when the format allows (an MCAP chunk index).
+  /// false when the source cannot seek: then nothing changed. Forward only.
+  virtual bool seek(double t) {
+    (void)t;
+    return false;
+  }
 };
 
 /// Opens an MCAP recording (a file) or a sequence directory (a folder), by what the path is.

@@ -4,8 +4,9 @@
 // checkpointed posterior".
 //
 // File: "FUSESCKP" | u32 format version | u32 length | u32 CRC-32 of the payload | payload, the
-// payload being the posterior as the wire's Correction (XCDR1, little-endian): one encoding for
-// what travels and what is kept. Written to FILE.tmp and renamed over FILE (a reader sees the old
+// payload being the posterior as the wire's Correction (XCDR1, little-endian: one encoding for
+// what travels and what is kept) followed by the 36 little-endian doubles of the map frame's
+// accumulated uncertainty (row-major 6x6, see ScanReport::map_drift). Written to FILE.tmp and renamed over FILE (a reader sees the old
 // or the new checkpoint, never a torn one); not fsync'd: it guards against the process dying, and
 // after a power cut the vehicle starts again from rest. Writes run on their own thread, newest
 // wins, so a slow disk never delays a correction. A checkpoint that is missing, damaged or of
@@ -23,10 +24,17 @@
 
 namespace fuse::service {
 
+using PoseCovariance = Eigen::Matrix<double, 6, 6>;
+
+struct Checkpoint {
+  Posterior posterior;
+  PoseCovariance map_drift = PoseCovariance::Zero();  ///< accumulated up to the posterior
+};
+
 /// Reads a checkpoint; nullopt with `why` set when there is none or it cannot be trusted.
-std::optional<Posterior> read_checkpoint(const std::filesystem::path& file, std::string& why);
+std::optional<Checkpoint> read_checkpoint(const std::filesystem::path& file, std::string& why);
 /// Writes a checkpoint atomically (temp file + rename); throws std::runtime_error on I/O failure.
-void write_checkpoint(const std::filesystem::path& file, const Posterior& posterior);
+void write_checkpoint(const std::filesystem::path& file, const Checkpoint& checkpoint);
 
 class CheckpointWriter {
  public:
@@ -36,7 +44,7 @@ class CheckpointWriter {
   CheckpointWriter(const CheckpointWriter&) = delete;
   CheckpointWriter& operator=(const CheckpointWriter&) = delete;
 
-  void offer(const Posterior& posterior);
+  void offer(const Checkpoint& checkpoint);
   std::uint64_t written() const;
   std::uint64_t failures() const;
   std::string last_error() const;
@@ -48,7 +56,7 @@ class CheckpointWriter {
   std::chrono::duration<double> period_;
   mutable std::mutex mutex_;
   std::condition_variable cv_;
-  std::optional<Posterior> pending_;
+  std::optional<Checkpoint> pending_;
   bool stop_ = false;
   std::uint64_t written_ = 0, failures_ = 0;
   std::string last_error_;
