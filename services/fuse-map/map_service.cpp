@@ -14,6 +14,9 @@ namespace {
 
 std::shared_ptr<spdlog::logger> log() { return logger("fuse-map"); }
 
+/// Longest text of a string<256> field (the bound of fuse_msgs' error strings, less the NUL).
+constexpr std::size_t kMaxErrorText = 255;
+
 bool finite(const fuse_msgs::Pose& pose) {
   const auto& p = pose.position();
   const auto& q = pose.orientation();
@@ -30,7 +33,7 @@ std::size_t non_empty_chunks(const PointMap& map) {
 
 void set_reply_error(fuse_msgs::MapControlReply& reply, fuse_msgs::RpcStatus status, const std::string& message) {
   reply.error(status);
-  reply.error_message(message.substr(0, 255));
+  reply.error_message(message.substr(0, kMaxErrorText));
   log()->warn("map/control: {}", message);
 }
 
@@ -58,18 +61,15 @@ MapService::MapService(const MapServerConfig& config, transport::Participant& pa
     const std::string summary = "map load: " + std::to_string(report.problems.size()) +
                                 " problem(s), the good part is kept; first: " + report.problems.front();
     count("load_problems", report.problems.size());
-    set_error(summary, false);
+    set_error(summary);
     log()->warn("{}", summary);
   }
 
-  // The whole map once, so that replicas (transient-local, latest per chunk) find it.
+  // The whole map once, so that replicas (transient-local, latest per chunk) find it, and the
+  // acknowledgements as loaded, so that no sender reads 0 for a session the map holds.
+  refresh_stats();
   publish_all_chunks();
   publish_status();
-  refresh_stats();
-  {
-    std::lock_guard<std::mutex> lock(health_mutex_);
-    state_ = "running";
-  }
 
   worker_alive_ns_ = std::chrono::steady_clock::now().time_since_epoch().count();
   worker_ = std::thread([this] { run(); });
@@ -161,31 +161,62 @@ void MapService::on_control(const fuse_msgs::MapControlRequest& request, fuse_ms
 void MapService::run() {
   for (;;) {
     Job job;
+    bool have_job = false;
     {
       std::unique_lock<std::mutex> lock(queue_mutex_);
-      while (!queue_cv_.wait_for(lock, kWorkerBeat, [this] { return stop_ || !queue_.empty(); })) {
-        worker_alive_ns_ = std::chrono::steady_clock::now().time_since_epoch().count();
-      }
+      // A retry that is due now (more pending to write) does not wait for the next beat.
+      const bool retry_now = retry_at_ && *retry_at_ <= std::chrono::steady_clock::now();
+      queue_cv_.wait_for(lock, retry_now ? std::chrono::milliseconds(0) : kWorkerBeat,
+                         [this] { return stop_ || !queue_.empty(); });
       if (stop_) return;  // queued observations stay unacknowledged
-      job = std::move(queue_.front());
-      queue_.pop_front();
-      if (job.observation) --queued_observations_;
+      if (!queue_.empty()) {
+        job = std::move(queue_.front());
+        queue_.pop_front();
+        if (job.observation) --queued_observations_;
+        have_job = true;
+      }
     }
     try {
-      if (job.observation) {
+      if (have_job && job.observation) {
         handle_observation(*job.observation);
-      } else {
+      } else if (have_job) {
         job.control();
       }
+      retry_if_due();
     } catch (const std::exception& e) {
-      // Not a journal failure (handled where it happens): e.g. a chunk that failed to encode.
+      // Not a write failure (the core keeps those pending): e.g. a chunk that failed to encode.
       count("worker_errors");
-      set_error(std::string("worker: ") + e.what(), true);
+      set_error(std::string("worker: ") + e.what());
       log()->error("worker: {}", e.what());
     }
     refresh_stats();
     worker_alive_ns_ = std::chrono::steady_clock::now().time_since_epoch().count();
   }
+}
+
+void MapService::retry_if_due() {
+  const auto now = std::chrono::steady_clock::now();
+  if (!core_->degraded()) {
+    retry_at_.reset();
+    return;
+  }
+  const auto interval = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(core_->config().retry_interval_s));
+  if (!retry_at_) {
+    retry_at_ = now + interval;  // the failure just happened: try again after one interval
+    return;
+  }
+  if (now < *retry_at_) return;
+  const MapRetryResult r = core_->retry();
+  retry_at_ = r.more ? now : now + interval;
+  if (r.journaled == 0) return;
+  count("observations_applied", r.journaled);
+  count("points_inserted", r.inserted);
+  for (const std::uint64_t key : r.changed_chunks) {
+    if (const PointChunk* chunk = core_->map().chunk(key)) publish_chunk(*chunk);
+  }
+  refresh_stats();
+  publish_status();
 }
 
 void MapService::handle_observation(const fuse_msgs::MapObservation& o) {
@@ -207,40 +238,22 @@ void MapService::handle_observation(const fuse_msgs::MapObservation& o) {
   }
   if (not_finite > 0) count("points_not_finite", not_finite);  // the core drops them
 
-  last_session_ = o.session();
-  MapApplyResult r;
-  try {
-    r = core_->apply(o.session(), o.sequence_number(), o.t(), points);
-  } catch (const MapStorageError& e) {
-    // Not journaled, so not applied and not acknowledged: the sender re-sends it.
-    count("journal_errors");
-    set_error(std::string("journal: ") + e.what(), true);
-    {
-      std::lock_guard<std::mutex> lock(health_mutex_);
-      journal_failing_ = true;
-    }
-    log()->error("observation session {} sequence {} not journaled: {}", o.session(), o.sequence_number(), e.what());
-    publish_status();
-    return;
-  }
-
+  const MapApplyResult r =
+      core_->apply(o.session(), o.sequence_number(), o.t(), points);
+  if (r.rejected > not_finite) count("points_out_of_range", r.rejected - not_finite);
+  const char* outcome = r.duplicate ? "duplicate" : r.applied ? "applied" : r.pending ? "pending" : "frozen";
   if (r.duplicate) {
     count("observations_duplicate");
   } else if (r.applied) {
     count("observations_applied");
     count("points_inserted", r.inserted);
-    if (r.rejected > not_finite) count("points_out_of_range", r.rejected - not_finite);
-    std::lock_guard<std::mutex> lock(health_mutex_);
-    if (journal_failing_) {
-      journal_failing_ = false;
-      state_ = "running";
-    }
-  } else {
+  } else if (!r.pending) {
     count("observations_frozen");  // localization: acknowledged, the map unchanged
-  }
-  log()->debug("observation {}:{} ({} points): {}, {} inserted, {} chunks changed", o.session(), o.sequence_number(),
-               o.points().size(), r.duplicate ? "duplicate" : (r.applied ? "applied" : "frozen"), r.inserted,
-               r.changed_chunks.size());
+  }  // pending: counted by the core (observations_deferred), applied when journaled
+  log()->debug("observation {}:{} ({} points): {}, {} inserted, {} chunks changed, acknowledged up to {}",
+               o.session(), o.sequence_number(), o.points().size(), outcome, r.inserted, r.changed_chunks.size(),
+               r.acked);
+  refresh_stats();
 
   for (const std::uint64_t key : r.changed_chunks) {
     if (const PointChunk* chunk = core_->map().chunk(key)) publish_chunk(*chunk);
@@ -287,7 +300,7 @@ void MapService::handle_control(const fuse_msgs::MapControlRequest& request, fus
   reply.epoch(s.epoch);
   reply.points(s.points);
   reply.chunks(static_cast<std::uint32_t>(non_empty_chunks(core_->map())));
-  reply.acked_sequence(core_->acked(last_session_));
+  reply.acked_sequence(core_->acked(core_->newest_session()));
   reply.journal_records(s.journal_records);
 }
 
@@ -314,8 +327,7 @@ void MapService::load_map(const std::string& path, fuse_msgs::MapControlReply& r
   }
   if (!report.clean()) {
     set_error("load " + path + ": " + std::to_string(report.problems.size()) +
-                  " problem(s), the good part is kept; first: " + report.problems.front(),
-              false);
+              " problem(s), the good part is kept; first: " + report.problems.front());
   }
 
   // The new epoch everywhere, and an empty chunk where the old map had one the new map lacks, so
@@ -366,21 +378,22 @@ void MapService::publish_status() {
   fuse_msgs::MapStatus m;
   m.epoch(s.epoch);
   m.mode(s.mode);
-  m.session(last_session_);
-  m.acked_sequence(core_->acked(last_session_));
+  m.session(core_->newest_session());
+  m.acked_sequence(core_->acked(core_->newest_session()));
   m.points(s.points);
   m.chunks(static_cast<std::uint32_t>(non_empty_chunks(core_->map())));
   m.observations_applied(s.observations_applied);
   m.journal_records(s.journal_records);
   {
     std::lock_guard<std::mutex> lock(health_mutex_);
-    m.last_error(last_error_.substr(0, 255));
+    m.last_error(last_error_.substr(0, kMaxErrorText));
   }
   count(status_.publish(m) ? "statuses_published" : "status_publish_failures");
 }
 
 void MapService::refresh_stats() {
   const MapServerStats s = core_->stats();
+  const LoadReport& load = core_->load_report();
   std::lock_guard<std::mutex> lock(health_mutex_);
   counters_["map_epoch"] = s.epoch;
   counters_["map_points"] = s.points;
@@ -389,11 +402,24 @@ void MapService::refresh_stats() {
   counters_["journal_records"] = s.journal_records;
   counters_["snapshots"] = s.snapshots;
   counters_["localization"] = s.mode == "localization" ? 1 : 0;
-  // An automatic snapshot that failed: the observations are safe in the journal, so not degraded.
-  if (!s.last_error.empty() && s.last_error != snapshot_error_) {
-    snapshot_error_ = s.last_error;
-    last_error_ = "automatic snapshot: " + s.last_error;
+  counters_["pending_observations"] = s.pending;
+  counters_["pending_bytes"] = s.pending_bytes;
+  counters_["load_bytes_skipped"] = load.bytes_skipped();
+  counters_["load_damaged_ranges"] = load.damaged.size();
+  counters_["load_observations_lost"] = load.journal_records_lost;
+  counters_["load_chunks_lost"] = load.chunks_dropped;
+  for (const auto& [name, value] : s.counters) counters_[name] = value;  // journal_errors, pending_dropped, ...
+  const std::string state = s.degraded ? "degraded" : "running";
+  if (state != state_ && state_ != "stopping") {
+    if (s.degraded) {
+      log()->error("degraded: {}", s.degraded_reason);
+    } else if (state_ == "degraded") {
+      log()->info("running again: every observation is journaled and the map directory is writable");
+    }
+    state_ = state;
   }
+  if (s.degraded && s.degraded_reason != degraded_reason_) last_error_ = s.degraded_reason;
+  degraded_reason_ = s.degraded_reason;
 }
 
 std::uint64_t MapService::count(const std::string& counter, std::uint64_t n) {
@@ -407,10 +433,9 @@ std::uint64_t MapService::counter(const std::string& counter) const {
   return it == counters_.end() ? 0 : it->second;
 }
 
-void MapService::set_error(const std::string& error, bool degraded) {
+void MapService::set_error(const std::string& error) {
   std::lock_guard<std::mutex> lock(health_mutex_);
   last_error_ = error;
-  if (degraded) state_ = "degraded";
 }
 
 }  // namespace fuse::map_service
