@@ -40,11 +40,29 @@ void set_reply_error(fuse_msgs::MapControlReply& reply, fuse_msgs::RpcStatus sta
 /// Refusals are logged once, then every 100th: a misbehaving sender must not flood the log.
 bool worth_logging(std::uint64_t n) { return n == 1 || n % 100 == 0; }
 
+std::uint64_t counter_of(const MapServerStats& s, const std::string& name) {
+  const auto it = s.counters.find(name);
+  return it == s.counters.end() ? 0 : it->second;
+}
+
+/// The recently active sessions' acknowledgements, newest first, as many as map/status carries.
+std::vector<fuse_msgs::SessionAck> session_acks(const MapServerCore& core) {
+  std::vector<fuse_msgs::SessionAck> out;
+  for (const auto& [session, acked] : core.recent_sessions(fuse_msgs::MAX_STATUS_SESSIONS)) {
+    fuse_msgs::SessionAck a;
+    a.session(session);
+    a.acked_sequence(acked);
+    out.push_back(a);
+  }
+  return out;
+}
+
 }  // namespace
 
 const char* refusal_reason(const fuse_msgs::MapObservation& o) {
   if (o.session() == 0) return "refused_session_zero";
   if (o.sequence_number() == 0) return "refused_sequence_zero";
+  if (o.lowest_unacked() > o.sequence_number()) return "refused_lowest_unacked_above_sequence";
   if (!std::isfinite(o.t())) return "refused_time_not_finite";
   if (!finite(o.sensor_pose())) return "refused_pose_not_finite";
   if (o.points().size() > fuse_msgs::MAX_SCAN_POINTS) return "refused_too_many_points";
@@ -239,7 +257,7 @@ void MapService::handle_observation(const fuse_msgs::MapObservation& o) {
   if (not_finite > 0) count("points_not_finite", not_finite);  // the core drops them
 
   const MapApplyResult r =
-      core_->apply(o.session(), o.sequence_number(), o.t(), points);
+      core_->apply(o.session(), o.sequence_number(), o.t(), points, o.lowest_unacked());
   if (r.rejected > not_finite) count("points_out_of_range", r.rejected - not_finite);
   const char* outcome = r.duplicate ? "duplicate" : r.applied ? "applied" : r.pending ? "pending" : "frozen";
   if (r.duplicate) {
@@ -302,6 +320,18 @@ void MapService::handle_control(const fuse_msgs::MapControlRequest& request, fus
   reply.chunks(static_cast<std::uint32_t>(non_empty_chunks(core_->map())));
   reply.acked_sequence(core_->acked(core_->newest_session()));
   reply.journal_records(s.journal_records);
+  reply.state(s.degraded ? "degraded" : "running");
+  reply.state_reason(s.degraded_reason.substr(0, kMaxErrorText));
+  reply.journal_errors(counter_of(s, "journal_errors"));
+  reply.pending_observations(s.pending);
+  reply.pending_bytes(s.pending_bytes);
+  reply.pending_dropped(counter_of(s, "pending_dropped"));
+  const LoadReport& load = core_->load_report();
+  reply.load_bytes_skipped(load.bytes_skipped());
+  reply.load_damaged_ranges(static_cast<std::uint32_t>(load.damaged.size()));
+  reply.load_observations_lost(load.journal_records_lost);
+  reply.load_chunks_lost(load.chunks_dropped);
+  reply.sessions(session_acks(*core_));
 }
 
 void MapService::load_map(const std::string& path, fuse_msgs::MapControlReply& reply) {
@@ -380,6 +410,7 @@ void MapService::publish_status() {
   m.mode(s.mode);
   m.session(core_->newest_session());
   m.acked_sequence(core_->acked(core_->newest_session()));
+  m.sessions(session_acks(*core_));
   m.points(s.points);
   m.chunks(static_cast<std::uint32_t>(non_empty_chunks(core_->map())));
   m.observations_applied(s.observations_applied);
