@@ -10,7 +10,7 @@
 // the single-process estimator (the next scan must see them with no round trip); the map
 // server's chunks build the replica at start-up and after the map server replaces its map
 // (a new epoch). Observations carry (session, sequence); those the map server has not yet
-// acknowledged on map/status are re-sent.
+// acknowledged on map/status are re-sent, within bounds (unacked_observations.hpp).
 #pragma once
 
 #include <condition_variable>
@@ -25,6 +25,7 @@
 #include "fuse/service/health.hpp"
 #include "fuse/service/system_config.hpp"
 #include "fuse/transport/rpc.hpp"
+#include "unacked_observations.hpp"
 
 namespace fuse::service {
 
@@ -36,10 +37,6 @@ class UpdateService {
   void run();
 
  private:
-  struct Unacked {
-    fuse_msgs::MapObservation msg;
-    std::chrono::steady_clock::time_point sent;
-  };
   void on_scan(const std::uint8_t* data, std::size_t size);
   void on_chunk(const fuse_msgs::MapChunk& msg);
   void on_status(const fuse_msgs::MapStatus& msg);
@@ -66,7 +63,7 @@ class UpdateService {
   fuse_msgs::MapStatus status_;
   std::uint64_t replica_epoch_ = 0;
   std::string replica_mode_;
-  std::deque<Unacked> unacked_;
+  UnackedObservations unacked_;
   Counters counters_;
   std::map<std::string, std::uint64_t> updater_counts_;  ///< copied from the worker after each scan
   std::string last_error_;
