@@ -182,10 +182,10 @@ void MapService::run() {
     bool have_job = false;
     {
       std::unique_lock<std::mutex> lock(queue_mutex_);
-      // A retry that is due now (more pending to write) does not wait for the next beat.
-      const bool retry_now = retry_at_ && *retry_at_ <= std::chrono::steady_clock::now();
-      queue_cv_.wait_for(lock, retry_now ? std::chrono::milliseconds(0) : kWorkerBeat,
-                         [this] { return stop_ || !queue_.empty(); });
+      // A retry that is due (soon) does not wait for the next beat.
+      auto until = std::chrono::steady_clock::now() + kWorkerBeat;
+      if (retry_at_) until = std::min(until, *retry_at_);
+      queue_cv_.wait_until(lock, until, [this] { return stop_ || !queue_.empty(); });
       if (stop_) return;  // queued observations stay unacknowledged
       if (!queue_.empty()) {
         job = std::move(queue_.front());

@@ -278,7 +278,7 @@ std::string MapServerCore::degraded_reason() const {
   if (!degraded()) return {};
   std::string reason;
   if (!storage_->writable()) {
-    reason = "map directory not writable: " + storage_->write_error();
+    reason = "not journaling: " + storage_->write_error();
   } else if (!snapshot_error_.empty()) {
     reason = "snapshot: " + snapshot_error_;
   } else {
