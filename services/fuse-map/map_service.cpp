@@ -118,7 +118,14 @@ void MapService::stop() {
     stop_ = true;
   }
   queue_cv_.notify_all();
-  if (worker_.joinable()) worker_.join();
+  if (worker_.joinable()) {
+    worker_.join();
+    if (const std::size_t pending = core_->stats().pending; pending > 0) {
+      log()->warn("stopping with {} observations not journaled (pending): unacknowledged, their senders still hold "
+                   "them",
+                   pending);
+    }
+  }
   std::lock_guard<std::mutex> lock(health_mutex_);
   state_ = "stopping";
 }

@@ -214,12 +214,18 @@ bool MapServerCore::try_snapshot(const char* why) {
     storage_->snapshot(map_, meta_);
   } catch (const MapStorageError& e) {
     snapshot_error_ = e.what();
+    // A snapshot writes the whole map before it can fail for space: back off (1, 2, 4, ...
+    // retries, at most kMaxSnapshotBackoff) instead of rewriting it at every retry.
+    snapshot_backoff_ = std::min(kMaxSnapshotBackoff, std::max<std::size_t>(1, 2 * snapshot_backoff_));
+    retries_to_snapshot_ = snapshot_backoff_;
     counters_.count("snapshot_errors", std::string(why) + " snapshot not written: " + e.what() +
                                            " (the journal keeps every acknowledged observation)");
     return false;
   }
   ++snapshots_;
   snapshot_wanted_ = false;
+  snapshot_backoff_ = 0;
+  retries_to_snapshot_ = 0;
   if (!snapshot_error_.empty()) logger("map")->info("{} snapshot written: snapshots work again", why);
   snapshot_error_.clear();
   return true;
@@ -265,7 +271,8 @@ MapRetryResult MapServerCore::retry() {
     if (result.more) return result;
     log->info("every pending observation is journaled and acknowledged");
   }
-  if (snapshot_due()) try_snapshot(snapshot_error_.empty() ? "due" : "retried");
+  if (retries_to_snapshot_ > 0) --retries_to_snapshot_;
+  if (snapshot_due() && retries_to_snapshot_ == 0) try_snapshot(snapshot_error_.empty() ? "due" : "retried");
   return result;
 }
 

@@ -21,8 +21,10 @@
 // arrival order (pending, bounded by max_pending_bytes: beyond it the oldest is dropped and
 // counted; it stays unacknowledged, so its sender still holds it), and nothing new is
 // acknowledged. retry() (every retry_interval_s) makes the directory writable again if it can,
-// journals and applies the pending in order, then writes a due snapshot; the core is running
-// again once nothing is pending and the journal and snapshots work. Repeated failures are logged
+// journals and applies the pending in order, then writes a due snapshot (one that keeps failing
+// is tried at growing intervals, at most every kMaxSnapshotBackoff retries: it rewrites the whole
+// map each time); the core is running again once nothing is pending and the journal and
+// snapshots work. Repeated failures are logged
 // rate-limited, with counts (fuse::Counters).
 // Restart: snapshot + journal replay rebuild the same map, point for point, and the same
 // acknowledged sequences. A damaged load keeps every good record and, with write access, is
@@ -184,6 +186,8 @@ class MapServerCore {
   /// Most observations one retry() journals with one fsync, and most bytes of their points.
   static constexpr std::size_t kRetryBatchRecords = 64;
   static constexpr std::size_t kRetryBatchBytes = std::size_t{16} << 20;
+  /// Most retry() calls between two attempts of a snapshot that keeps failing.
+  static constexpr std::size_t kMaxSnapshotBackoff = 32;
 
   struct Pending {
     MapObservation observation;
@@ -213,6 +217,8 @@ class MapServerCore {
   std::size_t pending_bytes_ = 0;
   bool snapshot_wanted_ = false;  ///< the load was damaged (or a save failed): a snapshot settles it
   std::string snapshot_error_;    ///< the last snapshot's failure, empty once one succeeded
+  std::size_t snapshot_backoff_ = 0;     ///< retries between attempts after the last failure
+  std::size_t retries_to_snapshot_ = 0;  ///< retries left before the next attempt
   LoadReport load_report_;
   std::vector<Eigen::Vector3f> inserted_;
   std::uint64_t received_ = 0, duplicates_ = 0, snapshots_ = 0;
