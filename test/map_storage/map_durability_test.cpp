@@ -55,6 +55,18 @@ void expect_acks_durable(const Sender& sender, const MapServerCore& persisted) {
   EXPECT_GE(persisted.acked(sender.session()), sender.acked());
 }
 
+/// A test on a small tmpfs: a real disk to fill or remount read-only (skipped, saying why,
+/// where mounting is not permitted). config_ is a map directory on it.
+class MapOnTmpfs : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (!disk_.ok()) GTEST_SKIP() << disk_.why();
+  }
+  TempDir dir_;
+  TmpfsMount disk_{dir_ / "disk", kDiskBytes};
+  MapServerConfig config_ = config_in(disk_.path() / "map");
+};
+
 /// The persisted map holds the reference's points within 2 % (count and shared points).
 void expect_within_two_percent(const PointMap& map, const PointMap& reference) {
   const double size_ratio = static_cast<double>(map.num_points()) / static_cast<double>(reference.num_points());
@@ -65,14 +77,11 @@ void expect_within_two_percent(const PointMap& map, const PointMap& reference) {
 
 // ---- full disk --------------------------------------------------------------------------------
 
-TEST(MapDurability, FullDiskKeepsObservationsPendingAndJournalsThemInOrderOnceThereIsSpace) {
-  TempDir dir;
-  TmpfsMount disk(dir / "disk", kDiskBytes);
-  if (!disk.ok()) GTEST_SKIP() << disk.why();
-  const MapServerConfig config = config_in(disk.path() / "map", 25);
+TEST_F(MapOnTmpfs, FullDiskKeepsObservationsPendingAndJournalsThemInOrderOnceThereIsSpace) {
+  config_.snapshot_every = 25;
   constexpr std::uint64_t kBefore = 30, kDuring = 60, kAfter = 10;
   {
-    MapServerCore core(config);
+    MapServerCore core(config_);
     Sender a(core, 11), b(core, 22);
     for (std::uint64_t i = 0; i < kBefore; ++i) {
       a.send_next();
@@ -82,7 +91,7 @@ TEST(MapDurability, FullDiskKeepsObservationsPendingAndJournalsThemInOrderOnceTh
     ASSERT_EQ(b.acked(), kBefore);
     const std::size_t journal_before = core.stats().journal_records;
 
-    ASSERT_GT(disk.fill(), 0u);
+    ASSERT_GT(disk_.fill(), 0u);
     for (std::uint64_t i = 0; i < kDuring; ++i) {
       EXPECT_TRUE(a.send_next().pending);
       EXPECT_TRUE(b.send_next().pending);
@@ -105,7 +114,7 @@ TEST(MapDurability, FullDiskKeepsObservationsPendingAndJournalsThemInOrderOnceTh
     EXPECT_EQ(core.stats().pending, 2 * kDuring);
     EXPECT_EQ(core.stats().duplicates, kDuring);
 
-    // Retrying while the disk is still full changes nothing.
+    // Retrying while the disk_ is still full changes nothing.
     core.retry();
     a.poll();
     EXPECT_TRUE(core.degraded());
@@ -113,7 +122,7 @@ TEST(MapDurability, FullDiskKeepsObservationsPendingAndJournalsThemInOrderOnceTh
     EXPECT_EQ(core.stats().counters.at("journal_errors"), 2u);
 
     // Space again: journaled in arrival order, applied and acknowledged.
-    disk.remove();
+    disk_.remove();
     ASSERT_TRUE(retry_until_running(core, {&a, &b})) << core.degraded_reason();
     EXPECT_EQ(a.acked(), kBefore + kDuring);
     EXPECT_EQ(b.acked(), kBefore + kDuring);
@@ -127,13 +136,13 @@ TEST(MapDurability, FullDiskKeepsObservationsPendingAndJournalsThemInOrderOnceTh
     }
     ASSERT_EQ(a.acked(), kBefore + kDuring + kAfter);
 
-    // The map from disk (read-only, as an export tool reads it) against a run without the fault
+    // The map from disk_ (read-only, as an export tool reads it) against a run without the fault
     // that received the same observations in the same order.
-    MapServerCore persisted(config, MapStorage::Access::kReadOnly);
+    MapServerCore persisted(config_, MapStorage::Access::kReadOnly);
     EXPECT_TRUE(persisted.load_report().clean()) << persisted.load_report().summary();
     expect_acks_durable(a, persisted);
     expect_acks_durable(b, persisted);
-    MapServerCore reference(config_in(dir / "reference"));
+    MapServerCore reference(config_in(dir_ / "reference"));
     Sender ra(reference, 11), rb(reference, 22);
     for (std::uint64_t i = 0; i < kBefore + kDuring + kAfter; ++i) {
       ra.send_next();
@@ -144,24 +153,20 @@ TEST(MapDurability, FullDiskKeepsObservationsPendingAndJournalsThemInOrderOnceTh
   }
 }
 
-TEST(MapDurability, PendingBeyondItsBoundDropsTheOldestWhichStaysUnacknowledgedUntilSentAgain) {
-  TempDir dir;
-  TmpfsMount disk(dir / "disk", kDiskBytes);
-  if (!disk.ok()) GTEST_SKIP() << disk.why();
-  MapServerConfig config = config_in(disk.path() / "map");
+TEST_F(MapOnTmpfs, PendingBeyondItsBoundDropsTheOldestWhichStaysUnacknowledgedUntilSentAgain) {
   constexpr std::size_t kKept = 10;
-  config.max_pending_bytes = kKept * (sizeof(MapObservation) + scan(1, 1).size() * sizeof(Eigen::Vector3f));
-  MapServerCore core(config);
+  config_.max_pending_bytes = kKept * (sizeof(MapObservation) + scan(1, 1).size() * sizeof(Eigen::Vector3f));
+  MapServerCore core(config_);
   Sender s(core, 9);
   for (int i = 0; i < 10; ++i) s.send_next();
-  ASSERT_GT(disk.fill(), 0u);
+  ASSERT_GT(disk_.fill(), 0u);
   for (int i = 0; i < 30; ++i) s.send_next();  // 11..40: 11..30 dropped from memory, 31..40 kept
   MapServerStats stats = core.stats();
   EXPECT_EQ(stats.pending, kKept);
   EXPECT_EQ(stats.counters["pending_dropped"], 20u);
   EXPECT_EQ(s.acked(), 10u);
 
-  disk.remove();
+  disk_.remove();
   ASSERT_TRUE(retry_until_running(core, {&s})) << core.degraded_reason();
   // 31..40 are durable now, above the hole 11..30: not acknowledged.
   EXPECT_EQ(s.acked(), 10u) << "the acknowledgement must not jump over what was dropped";
@@ -170,82 +175,70 @@ TEST(MapDurability, PendingBeyondItsBoundDropsTheOldestWhichStaysUnacknowledgedU
   // The sender still holds 11..40 and sends them again: the hole fills, all is acknowledged.
   s.resend_all();
   EXPECT_EQ(s.acked(), 40u);
-  MapServerCore persisted(config, MapStorage::Access::kReadOnly);
+  MapServerCore persisted(config_, MapStorage::Access::kReadOnly);
   expect_acks_durable(s, persisted);
 }
 
-TEST(MapDurability, FailedWriteLeavesTheJournalConsistent) {
-  TempDir dir;
-  TmpfsMount disk(dir / "disk", kDiskBytes);
-  if (!disk.ok()) GTEST_SKIP() << disk.why();
-  const MapServerConfig config = config_in(disk.path() / "map");
-  const auto journal = disk.path() / "map" / MapStorage::kJournalName;
+TEST_F(MapOnTmpfs, FailedWriteLeavesTheJournalConsistent) {
+  const auto journal = disk_.path() / "map" / MapStorage::kJournalName;
   constexpr int kLarge = 2000;  // 24 kB of points: more than the space left
   {
-    MapServerCore core(config);
+    MapServerCore core(config_);
     for (std::uint64_t q = 1; q <= 5; ++q) core.apply(4, q, 0.0, scan(4, q));
     const auto size = std::filesystem::file_size(journal);
     // Full, then two pages free: the record's first bytes fit, the rest does not (a short write).
-    const std::uint64_t filled = disk.fill();
+    const std::uint64_t filled = disk_.fill();
     ASSERT_GT(filled, 8192u);
-    std::filesystem::resize_file(disk.path() / "filler", filled - 8192);
+    std::filesystem::resize_file(disk_.path() / "filler", filled - 8192);
     const MapApplyResult r = core.apply(4, 6, 0.0, scan(4, 6, kLarge));
     EXPECT_TRUE(r.pending);
     EXPECT_EQ(r.acked, 5u);
     EXPECT_EQ(std::filesystem::file_size(journal), size) << "the torn record was rolled back";
-    disk.remove();
+    disk_.remove();
     ASSERT_TRUE(retry_until_running(core, {})) << core.degraded_reason();
     EXPECT_EQ(core.acked(4), 6u);
   }
-  MapServerCore reloaded(config, MapStorage::Access::kReadOnly);
+  MapServerCore reloaded(config_, MapStorage::Access::kReadOnly);
   EXPECT_TRUE(reloaded.load_report().clean()) << reloaded.load_report().summary();
   EXPECT_EQ(reloaded.load_report().journal_records, 6u);
   EXPECT_EQ(reloaded.acked(4), 6u);
 }
 
-TEST(MapDurability, SnapshotThatDoesNotFitIsRetriedWhileTheJournalKeepsAcknowledging) {
-  TempDir dir;
-  TmpfsMount disk(dir / "disk", kDiskBytes);
-  if (!disk.ok()) GTEST_SKIP() << disk.why();
-  const MapServerConfig config = config_in(disk.path() / "map");
-  MapServerCore core(config);
+TEST_F(MapOnTmpfs, SnapshotThatDoesNotFitIsRetriedWhileTheJournalKeepsAcknowledging) {
+  MapServerCore core(config_);
   Sender s(core, 2);
   for (int i = 0; i < 40; ++i) s.send_next();
   // Room for a few journal records, not for a snapshot of the whole map.
-  const std::uint64_t filled = disk.fill();
-  std::filesystem::resize_file(disk.path() / "filler", filled - 8 * 4096);
+  const std::uint64_t filled = disk_.fill();
+  std::filesystem::resize_file(disk_.path() / "filler", filled - 8 * 4096);
   EXPECT_THROW(core.save(), MapStorageError);
   EXPECT_TRUE(core.degraded());
   EXPECT_TRUE(contains(core.degraded_reason(), "snapshot")) << core.degraded_reason();
-  EXPECT_FALSE(std::filesystem::exists(disk.path() / "map" / "map.snapshot.tmp")) << "the temp file is removed";
+  EXPECT_FALSE(std::filesystem::exists(disk_.path() / "map" / "map.snapshot.tmp")) << "the temp file is removed";
   EXPECT_TRUE(s.send_next().applied) << "the journal still works: durable, acknowledged";
   EXPECT_EQ(s.acked(), 41u);
   core.retry();
   EXPECT_TRUE(core.degraded()) << "the snapshot still does not fit";
-  disk.remove();
+  disk_.remove();
   ASSERT_TRUE(retry_until_running(core, {&s})) << core.degraded_reason();
   EXPECT_EQ(core.stats().journal_records, 0u) << "the snapshot was written, the journal restarted";
-  MapServerCore persisted(config, MapStorage::Access::kReadOnly);
+  MapServerCore persisted(config_, MapStorage::Access::kReadOnly);
   expect_same_map(core.map(), persisted.map());
   expect_acks_durable(s, persisted);
 }
 
 // ---- read-only file system ------------------------------------------------------------------------
 
-TEST(MapDurability, ReadOnlyDirectoryAtStartIsServedDegradedUntilItCanBeWritten) {
-  TempDir dir;
-  TmpfsMount disk(dir / "disk", kDiskBytes);
-  if (!disk.ok()) GTEST_SKIP() << disk.why();
-  const MapServerConfig config = config_in(disk.path() / "map");
+TEST_F(MapOnTmpfs, ReadOnlyDirectoryAtStartIsServedDegradedUntilItCanBeWritten) {
   PointMap before(1.0);
   {
-    MapServerCore core(config);
+    MapServerCore core(config_);
     Sender s(core, 5);
     for (int i = 0; i < 20; ++i) s.send_next();
     before = core.map();
   }
-  ASSERT_TRUE(disk.set_read_only(true)) << disk.why();
-  MapServerCore core(config);  // not an error: serves what is there
+  ASSERT_TRUE(disk_.set_read_only(true)) << disk_.why();
+  MapServerCore core(config_);  // not an error: serves what is there
   EXPECT_TRUE(core.degraded());
   EXPECT_TRUE(contains(core.degraded_reason(), "Read-only file system")) << core.degraded_reason();
   expect_same_map(before, core.map());
@@ -258,31 +251,27 @@ TEST(MapDurability, ReadOnlyDirectoryAtStartIsServedDegradedUntilItCanBeWritten)
   EXPECT_TRUE(core.degraded());
   EXPECT_GE(core.stats().counters["write_retries_failed"], 1u);
 
-  ASSERT_TRUE(disk.set_read_only(false)) << disk.why();
+  ASSERT_TRUE(disk_.set_read_only(false)) << disk_.why();
   ASSERT_TRUE(retry_until_running(core, {&s})) << core.degraded_reason();
   EXPECT_EQ(s.acked(), 30u);
-  MapServerCore persisted(config, MapStorage::Access::kReadOnly);
+  MapServerCore persisted(config_, MapStorage::Access::kReadOnly);
   expect_same_map(core.map(), persisted.map());
   expect_acks_durable(s, persisted);
 }
 
-TEST(MapDurability, RemountedReadOnlyWhileRunningRecoversAfterRemountingReadWrite) {
-  TempDir dir;
-  TmpfsMount disk(dir / "disk", kDiskBytes);
-  if (!disk.ok()) GTEST_SKIP() << disk.why();
-  const MapServerConfig config = config_in(disk.path() / "map");
-  MapServerCore core(config);
+TEST_F(MapOnTmpfs, RemountedReadOnlyWhileRunningRecoversAfterRemountingReadWrite) {
+  MapServerCore core(config_);
   Sender s(core, 8);
   for (int i = 0; i < 10; ++i) s.send_next();
   // The core holds no file open for writing between writes, so the remount is allowed.
-  ASSERT_TRUE(disk.set_read_only(true, std::chrono::milliseconds(100))) << disk.why();
+  ASSERT_TRUE(disk_.set_read_only(true, std::chrono::milliseconds(100))) << disk_.why();
   for (int i = 0; i < 10; ++i) EXPECT_TRUE(s.send_next().pending);
   EXPECT_TRUE(contains(core.degraded_reason(), "Read-only file system")) << core.degraded_reason();
   EXPECT_EQ(s.acked(), 10u);
-  ASSERT_TRUE(disk.set_read_only(false)) << disk.why();
+  ASSERT_TRUE(disk_.set_read_only(false)) << disk_.why();
   ASSERT_TRUE(retry_until_running(core, {&s})) << core.degraded_reason();
   EXPECT_EQ(s.acked(), 20u);
-  MapServerCore persisted(config, MapStorage::Access::kReadOnly);
+  MapServerCore persisted(config_, MapStorage::Access::kReadOnly);
   expect_acks_durable(s, persisted);
 }
 

@@ -8,11 +8,13 @@
 #include <cmath>
 #include <fstream>
 
+#include "core_fixtures.hpp"
 #include "test_files.hpp"
 
 namespace fuse {
 namespace {
 
+using test::expect_same_map;
 using test::TempDir;
 
 MapObservation observation(std::uint64_t session, std::uint64_t sequence, int n = 50) {
@@ -40,19 +42,6 @@ PointMap sample_map(double chunk_size = 10.0) {
   return map;
 }
 
-void expect_same_map(const PointMap& a, const PointMap& b) {
-  EXPECT_EQ(a.chunk_size(), b.chunk_size());
-  ASSERT_EQ(a.num_chunks(), b.num_chunks());
-  ASSERT_EQ(a.num_points(), b.num_points());
-  a.for_each_chunk([&](const PointChunk& ca) {
-    const PointChunk* cb = b.chunk(ca.key);
-    ASSERT_NE(cb, nullptr) << "chunk " << ca.coord.transpose();
-    EXPECT_EQ(ca.coord, cb->coord);
-    EXPECT_EQ(ca.revision, cb->revision);
-    EXPECT_EQ(ca.points, cb->points);
-  });
-}
-
 struct Loaded {
   PointMap map;
   MapMeta meta;
@@ -64,6 +53,13 @@ Loaded load(MapStorage& storage) {
   Loaded out;
   out.report = storage.load(out.map, out.meta, [&](const MapObservation& o) { out.replayed.push_back(o); });
   return out;
+}
+
+/// A map directory whose journal holds observations 1..count of session.
+void write_journal(const std::filesystem::path& dir, std::uint64_t session, std::uint64_t count) {
+  MapStorage storage(dir);
+  load(storage);
+  for (std::uint64_t s = 1; s <= count; ++s) storage.append(observation(session, s));
 }
 
 TEST(MapStorage, SnapshotFileRoundTrip) {
@@ -182,11 +178,7 @@ TEST(MapStorage, CrashBetweenSnapshotRenameAndJournalResetAppliesNothingTwice) {
 
 TEST(MapStorage, CorruptedJournalRecordIsSkippedAndEveryLaterRecordKept) {
   TempDir dir;
-  {
-    MapStorage storage(dir.path());
-    load(storage);
-    for (std::uint64_t s = 1; s <= 6; ++s) storage.append(observation(2, s));
-  }
+  write_journal(dir.path(), 2, 6);
   const auto journal = dir / MapStorage::kJournalName;
   const auto offsets = test::record_offsets(journal);
   ASSERT_EQ(offsets.size(), 6u);
@@ -232,11 +224,7 @@ TEST(MapStorage, CorruptedJournalRecordIsSkippedAndEveryLaterRecordKept) {
 
 TEST(MapStorage, CorruptedLastJournalRecordIsCutAndAppendsContinue) {
   TempDir dir;
-  {
-    MapStorage storage(dir.path());
-    load(storage);
-    for (std::uint64_t s = 1; s <= 6; ++s) storage.append(observation(2, s));
-  }
+  write_journal(dir.path(), 2, 6);
   const auto journal = dir / MapStorage::kJournalName;
   const auto offsets = test::record_offsets(journal);
   test::flip_byte(journal, offsets[5] + 20);
@@ -259,11 +247,7 @@ TEST(MapStorage, CorruptedLastJournalRecordIsCutAndAppendsContinue) {
 
 TEST(MapStorage, ResyncSkipsGarbageAndAZeroedBlock) {
   TempDir dir;
-  {
-    MapStorage storage(dir.path());
-    load(storage);
-    for (std::uint64_t s = 1; s <= 9; ++s) storage.append(observation(3, s));
-  }
+  write_journal(dir.path(), 3, 9);
   const auto journal = dir / MapStorage::kJournalName;
   const auto offsets = test::record_offsets(journal);
   {
@@ -293,11 +277,7 @@ TEST(MapStorage, ResyncSkipsGarbageAndAZeroedBlock) {
 
 TEST(MapStorage, TruncatedJournalTailIsCutAndReported) {
   TempDir dir;
-  {
-    MapStorage storage(dir.path());
-    load(storage);
-    for (std::uint64_t s = 1; s <= 3; ++s) storage.append(observation(2, s));
-  }
+  write_journal(dir.path(), 2, 3);
   const auto journal = dir / MapStorage::kJournalName;
   const auto offsets = test::record_offsets(journal);
   test::truncate_to(journal, std::filesystem::file_size(journal) - 7);  // a torn last write
@@ -414,11 +394,7 @@ TEST(MapStorage, BadSnapshotHeaderStartsFromTheJournalOnly) {
 
 TEST(MapStorage, ReadOnlyAccessChangesNothing) {
   TempDir dir;
-  {
-    MapStorage storage(dir.path());
-    load(storage);
-    for (std::uint64_t s = 1; s <= 3; ++s) storage.append(observation(2, s));
-  }
+  write_journal(dir.path(), 2, 3);
   const auto journal = dir / MapStorage::kJournalName;
   const auto size = std::filesystem::file_size(journal);
   test::truncate_to(journal, size - 3);
