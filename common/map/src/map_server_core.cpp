@@ -187,11 +187,13 @@ void MapServerCore::journal_failed(const MapObservation& o) {
 void MapServerCore::keep_pending(MapObservation observation) {
   const std::size_t bytes = sizeof(MapObservation) + observation.points.size() * sizeof(Eigen::Vector3f);
   pending_ids_.insert({observation.session, observation.sequence});
-  counters_.count("observations_deferred", "observation " + id(observation.session, observation.sequence) +
-                                              " kept in memory, not journaled (" + std::to_string(pending_.size() + 1) +
-                                              " pending): " + degraded_reason());
+  const std::string name = id(observation.session, observation.sequence);
   pending_.push_back({std::move(observation), bytes});
   pending_bytes_ += bytes;
+  counters_.count("observations_deferred",
+                  "observation " + name + " kept in memory, not journaled (" + std::to_string(pending_.size()) +
+                      " pending, " + std::to_string(pending_bytes_) + " bytes): " +
+                      (storage_->writable() ? "behind earlier pending observations" : storage_->write_error()));
   // The bound: drop the oldest (its sender still holds it, unacknowledged, and sends it again).
   while (pending_bytes_ > config_.max_pending_bytes && pending_.size() > 1) {
     const MapObservation& oldest = pending_.front().observation;
