@@ -37,8 +37,6 @@ void set_reply_error(fuse_msgs::MapControlReply& reply, fuse_msgs::RpcStatus sta
   log()->warn("map/control: {}", message);
 }
 
-/// Refusals are logged once, then every 100th: a misbehaving sender must not flood the log.
-bool worth_logging(std::uint64_t n) { return n == 1 || n % 100 == 0; }
 
 std::uint64_t counter_of(const MapServerStats& s, const std::string& name) {
   const auto it = s.counters.find(name);
@@ -72,7 +70,8 @@ const char* refusal_reason(const fuse_msgs::MapObservation& o) {
 MapService::MapService(const MapServerConfig& config, transport::Participant& participant)
     : core_(std::make_unique<MapServerCore>(config)),
       chunks_(participant, transport::topics::kMapChunk),
-      status_(participant, transport::topics::kMapStatus) {
+      status_(participant, transport::topics::kMapStatus),
+      reported_(log()) {
   // The core has logged every problem of the load; health and status carry a summary.
   const LoadReport& report = core_->load_report();
   if (!report.clean()) {
@@ -141,6 +140,7 @@ service::HealthSnapshot MapService::health() const {
     std::lock_guard<std::mutex> lock(health_mutex_);
     s.state = state_;
     s.counters = counters_;
+    for (const auto& [name, value] : reported_.map()) s.counters[name] += value;
     s.last_error = last_error_;
   }
   return s;
@@ -164,8 +164,7 @@ void MapService::on_observation(const fuse_msgs::MapObservation& observation) {
 }
 
 void MapService::on_malformed(const std::string& reason) {
-  count("observations_malformed");
-  log()->warn("malformed observation sample: {}", reason);
+  report("observations_malformed", "malformed observation sample: " + reason);
 }
 
 void MapService::on_control(const fuse_msgs::MapControlRequest& request, fuse_msgs::MapControlReply& reply) {
@@ -210,9 +209,8 @@ void MapService::run() {
       retry_if_due();
     } catch (const std::exception& e) {
       // Not a write failure (the core keeps those pending): e.g. a chunk that failed to encode.
-      count("worker_errors");
       set_error(std::string("worker: ") + e.what());
-      log()->error("worker: {}", e.what());
+      report("worker_errors", std::string("worker: ") + e.what());
     }
     refresh_stats();
     worker_alive_ns_ = std::chrono::steady_clock::now().time_since_epoch().count();
@@ -247,10 +245,8 @@ void MapService::retry_if_due() {
 void MapService::handle_observation(const fuse_msgs::MapObservation& o) {
   if (const char* reason = refusal_reason(o)) {
     count("observations_refused");
-    if (worth_logging(count(reason))) {
-      log()->warn("observation session {} sequence {} refused: {} ({} so far)", o.session(), o.sequence_number(),
-                  reason, counter(reason));
-    }
+    report(reason, "observation session " + std::to_string(o.session()) + " sequence " +
+                       std::to_string(o.sequence_number()) + " refused: " + reason);
     return;
   }
 
@@ -384,9 +380,10 @@ void MapService::load_map(const std::string& path, fuse_msgs::MapControlReply& r
 
 void MapService::publish_chunk(const PointChunk& chunk) {
   if (chunk.points.size() > kMaxChunkPoints) {
-    count("chunks_too_large");
-    log()->error("chunk ({}, {}, {}) holds {} points, more than a map/chunk sample carries ({}): not published",
-                 chunk.coord.x(), chunk.coord.y(), chunk.coord.z(), chunk.points.size(), kMaxChunkPoints);
+    report("chunks_too_large", "chunk (" + std::to_string(chunk.coord.x()) + ", " + std::to_string(chunk.coord.y()) +
+                                   ", " + std::to_string(chunk.coord.z()) + ") holds " +
+                                   std::to_string(chunk.points.size()) + " points, more than a map/chunk sample carries (" +
+                                   std::to_string(kMaxChunkPoints) + "): not published");
     return;
   }
   fuse_msgs::MapChunk m;
@@ -465,10 +462,9 @@ std::uint64_t MapService::count(const std::string& counter, std::uint64_t n) {
   return counters_[counter] += n;
 }
 
-std::uint64_t MapService::counter(const std::string& counter) const {
+void MapService::report(const std::string& counter, const std::string& message) {
   std::lock_guard<std::mutex> lock(health_mutex_);
-  const auto it = counters_.find(counter);
-  return it == counters_.end() ? 0 : it->second;
+  reported_.count(counter, message);
 }
 
 void MapService::set_error(const std::string& error) {

@@ -32,6 +32,7 @@
 #include <string>
 #include <thread>
 
+#include "fuse/core/counters.hpp"
 #include "fuse/map/map_server_core.hpp"
 #include "fuse/service/health.hpp"
 #include "fuse/transport/rpc.hpp"
@@ -100,7 +101,9 @@ class MapService {
 
   /// Adds n to a health counter; returns its new value.
   std::uint64_t count(const std::string& counter, std::uint64_t n = 1);
-  std::uint64_t counter(const std::string& counter) const;
+  /// Counts one occurrence of a problem and logs message, rate-limited per counter
+  /// (fuse::Counters: a flood of bad input or errors stays readable, with counts).
+  void report(const std::string& counter, const std::string& message);
   void set_error(const std::string& error);
 
   std::unique_ptr<MapServerCore> core_;  ///< worker thread only (and the constructor)
@@ -112,6 +115,7 @@ class MapService {
 
   mutable std::mutex health_mutex_;
   std::map<std::string, std::uint64_t> counters_;
+  Counters reported_;  ///< counters whose occurrences are logged (rate-limited)
   std::string state_ = "starting";
   std::string last_error_;
   std::string degraded_reason_;  ///< the core's, empty when running
