@@ -237,13 +237,11 @@ MapRetryResult MapServerCore::retry() {
   MapRetryResult result;
   if (access_ != MapStorage::Access::kReadWrite) return result;
   auto log = logger("map");
-  if (!storage_->writable()) {
-    if (!storage_->make_writable()) {
-      counters_.count("write_retries_failed", "map directory " + config_.directory + " still cannot be written: " +
-                                                  storage_->write_error());
-      return result;
-    }
-    log->info("map directory {} can be written again ({} observations pending)", config_.directory, pending_.size());
+  const bool was_unwritable = !storage_->writable();
+  if (was_unwritable && !storage_->make_writable()) {
+    counters_.count("write_retries_failed", "map directory " + config_.directory + " still cannot be written: " +
+                                                storage_->write_error());
+    return result;
   }
   if (!pending_.empty()) {
     // One batch, one fsync; in arrival order.
@@ -265,6 +263,9 @@ MapRetryResult MapServerCore::retry() {
       pending_.pop_front();
     }
     result.journaled = written;
+    if (was_unwritable && written > 0) {
+      log->info("the journal takes records again ({} observations still pending)", pending_.size());
+    }
     if (written < batch.size()) {
       journal_failed(pending_.front().observation);
       return result;
@@ -294,8 +295,7 @@ std::string MapServerCore::degraded_reason() const {
     reason = "writing the pending observations";
   }
   if (!pending_.empty()) {
-    reason += "; " + std::to_string(pending_.size()) + " observations pending (" + std::to_string(pending_bytes_) +
-              " bytes)";
+    reason += "; " + std::to_string(pending_.size()) + " pending (" + std::to_string(pending_bytes_) + " bytes)";
   }
   return reason;
 }
