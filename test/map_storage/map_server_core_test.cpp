@@ -335,6 +335,7 @@ TEST(MapServerConfig, LoadsValidatesAndRefusesUnknownKeys) {
       {"policy: {mode: painting}\n", "mode"},
       {"max_pending_bytes: 1000\n", "max_pending_bytes"},
       {"max_pending_bytes: lots\n", "max_pending_bytes"},
+      {"max_pending_bytes: -1\n", "max_pending_bytes"},
       {"retry_interval_s: 0\n", "retry_interval_s"},
       {"retry_interval_s: 1e9\n", "retry_interval_s"},
       {"retry_interval_s: .nan\n", "retry_interval_s"}};
