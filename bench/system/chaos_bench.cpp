@@ -295,8 +295,8 @@ int main(int argc, char** argv) {
   fuse::transport::Subscriber<fuse_msgs::MapStatus> status(*participant, fuse::transport::topics::kMapStatus,
                                                            [&](const fuse_msgs::MapStatus& s) {
                                                              std::lock_guard<std::mutex> lock(mutex);
-                                                             if (s.session() != 0) {
-                                                               acked[s.session()] = std::max(acked[s.session()], s.acked_sequence());
+                                                             for (const fuse_msgs::SessionAck& a : s.sessions()) {
+                                                               acked[a.session()] = std::max(acked[a.session()], a.acked_sequence());
                                                              }
                                                            });
 

@@ -6,11 +6,14 @@
 // observations of map/observation (journal first), publishes map/chunk and map/status, answers
 // map/control (fuse-map-ctl) and a heartbeat on health, until SIGINT or SIGTERM. Nothing needs
 // saving on the way out: every acknowledged observation is already in the journal (fsync'd
-// before it is acknowledged); the observation in hand is finished first. Under systemd
-// (Type=notify, notify.hpp) it sends READY=1 once the map is loaded, WATCHDOG=1 while its worker
-// makes progress, and STOPPING=1 on the way out.
-// Exit codes: 0 stopped by a signal, 1 could not start (map directory unusable or locked by
-// another fuse-map, transport), 2 usage or config.
+// before it is acknowledged); the observation in hand is finished first. A map directory that
+// cannot be written (read-only file system, full disk) is no reason to stop: it serves what it
+// loaded, degraded, and tries again (map_server.retry_interval_s). Under systemd (Type=notify,
+// notify.hpp) it sends READY=1 once the map is loaded (degraded or not), STATUS= when its state
+// changes, WATCHDOG=1 while its worker makes progress, and STOPPING=1 on the way out.
+// Exit codes: 0 stopped by a signal, 1 could not start (a map file unreadable, transport),
+// 2 usage or config, or the map directory locked by another running fuse-map (a conflict that
+// restarting cannot resolve: supervisors do not restart on 2).
 #include "fuse/core/logging.hpp"
 #include "fuse/service/health.hpp"
 #include "fuse/service/notify.hpp"
@@ -39,14 +42,26 @@ int main(int argc, char** argv) {
     // Start-up complete (map loaded, endpoints created): READY; then the watchdog while the
     // worker that journals and applies observations keeps making progress.
     service::Notifier& notify = service::notifier();
-    notify.ready("serving " + config.map_server.directory);
+    auto status_line = [&](const service::HealthSnapshot& h) {
+      return "serving " + config.map_server.directory +
+             (h.state == "degraded" ? " (degraded: " + h.last_error + ")" : "");
+    };
+    service::HealthSnapshot shown = map.health();
+    notify.ready(status_line(shown));
     while (!service::wait_for_stop(notify.wake_interval_s())) {
       if (map.worker_silence_s() < map_service::MapService::kWorkerStuckS) notify.watchdog();
+      const service::HealthSnapshot now = map.health();
+      if (now.state != shown.state) notify.status(status_line(now));
+      shown = now;
     }
     log->info("stop requested");
     notify.stopping("finishing the observation in hand; the journal holds every acknowledged one");
     map.stop();
     health.publish_now();
+  } catch (const MapDirectoryLocked& e) {
+    log->error("{}: another fuse-map serves this map directory; not starting (exit code 2, not restarted)",
+               e.what());
+    return 2;
   } catch (const std::exception& e) {
     log->error("{}", e.what());
     return 1;

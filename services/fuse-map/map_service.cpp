@@ -14,6 +14,9 @@ namespace {
 
 std::shared_ptr<spdlog::logger> log() { return logger("fuse-map"); }
 
+/// Longest text of a string<256> field (the bound of fuse_msgs' error strings, less the NUL).
+constexpr std::size_t kMaxErrorText = 255;
+
 bool finite(const fuse_msgs::Pose& pose) {
   const auto& p = pose.position();
   const auto& q = pose.orientation();
@@ -30,18 +33,34 @@ std::size_t non_empty_chunks(const PointMap& map) {
 
 void set_reply_error(fuse_msgs::MapControlReply& reply, fuse_msgs::RpcStatus status, const std::string& message) {
   reply.error(status);
-  reply.error_message(message.substr(0, 255));
+  reply.error_message(message.substr(0, kMaxErrorText));
   log()->warn("map/control: {}", message);
 }
 
-/// Refusals are logged once, then every 100th: a misbehaving sender must not flood the log.
-bool worth_logging(std::uint64_t n) { return n == 1 || n % 100 == 0; }
+
+std::uint64_t counter_of(const MapServerStats& s, const std::string& name) {
+  const auto it = s.counters.find(name);
+  return it == s.counters.end() ? 0 : it->second;
+}
+
+/// The recently active sessions' acknowledgements, newest first, as many as map/status carries.
+std::vector<fuse_msgs::SessionAck> session_acks(const MapServerCore& core) {
+  std::vector<fuse_msgs::SessionAck> out;
+  for (const auto& [session, acked] : core.recent_sessions(fuse_msgs::MAX_STATUS_SESSIONS)) {
+    fuse_msgs::SessionAck a;
+    a.session(session);
+    a.acked_sequence(acked);
+    out.push_back(a);
+  }
+  return out;
+}
 
 }  // namespace
 
 const char* refusal_reason(const fuse_msgs::MapObservation& o) {
   if (o.session() == 0) return "refused_session_zero";
   if (o.sequence_number() == 0) return "refused_sequence_zero";
+  if (o.lowest_unacked() > o.sequence_number()) return "refused_lowest_unacked_above_sequence";
   if (!std::isfinite(o.t())) return "refused_time_not_finite";
   if (!finite(o.sensor_pose())) return "refused_pose_not_finite";
   if (o.points().size() > fuse_msgs::MAX_SCAN_POINTS) return "refused_too_many_points";
@@ -51,25 +70,23 @@ const char* refusal_reason(const fuse_msgs::MapObservation& o) {
 MapService::MapService(const MapServerConfig& config, transport::Participant& participant)
     : core_(std::make_unique<MapServerCore>(config)),
       chunks_(participant, transport::topics::kMapChunk),
-      status_(participant, transport::topics::kMapStatus) {
+      status_(participant, transport::topics::kMapStatus),
+      reported_(log()) {
   // The core has logged every problem of the load; health and status carry a summary.
   const LoadReport& report = core_->load_report();
   if (!report.clean()) {
     const std::string summary = "map load: " + std::to_string(report.problems.size()) +
                                 " problem(s), the good part is kept; first: " + report.problems.front();
     count("load_problems", report.problems.size());
-    set_error(summary, false);
+    set_error(summary);
     log()->warn("{}", summary);
   }
 
-  // The whole map once, so that replicas (transient-local, latest per chunk) find it.
+  // The whole map once, so that replicas (transient-local, latest per chunk) find it, and the
+  // acknowledgements as loaded, so that no sender reads 0 for a session the map holds.
+  refresh_stats();
   publish_all_chunks();
   publish_status();
-  refresh_stats();
-  {
-    std::lock_guard<std::mutex> lock(health_mutex_);
-    state_ = "running";
-  }
 
   worker_alive_ns_ = std::chrono::steady_clock::now().time_since_epoch().count();
   worker_ = std::thread([this] { run(); });
@@ -100,7 +117,14 @@ void MapService::stop() {
     stop_ = true;
   }
   queue_cv_.notify_all();
-  if (worker_.joinable()) worker_.join();
+  if (worker_.joinable()) {
+    worker_.join();
+    if (const std::size_t pending = core_->stats().pending; pending > 0) {
+      log()->warn("stopping with {} observations not journaled (pending): unacknowledged, their senders still hold "
+                   "them",
+                   pending);
+    }
+  }
   std::lock_guard<std::mutex> lock(health_mutex_);
   state_ = "stopping";
 }
@@ -116,6 +140,7 @@ service::HealthSnapshot MapService::health() const {
     std::lock_guard<std::mutex> lock(health_mutex_);
     s.state = state_;
     s.counters = counters_;
+    for (const auto& [name, value] : reported_.map()) s.counters[name] += value;
     s.last_error = last_error_;
   }
   return s;
@@ -139,8 +164,7 @@ void MapService::on_observation(const fuse_msgs::MapObservation& observation) {
 }
 
 void MapService::on_malformed(const std::string& reason) {
-  count("observations_malformed");
-  log()->warn("malformed observation sample: {}", reason);
+  report("observations_malformed", "malformed observation sample: " + reason);
 }
 
 void MapService::on_control(const fuse_msgs::MapControlRequest& request, fuse_msgs::MapControlReply& reply) {
@@ -161,40 +185,68 @@ void MapService::on_control(const fuse_msgs::MapControlRequest& request, fuse_ms
 void MapService::run() {
   for (;;) {
     Job job;
+    bool have_job = false;
     {
       std::unique_lock<std::mutex> lock(queue_mutex_);
-      while (!queue_cv_.wait_for(lock, kWorkerBeat, [this] { return stop_ || !queue_.empty(); })) {
-        worker_alive_ns_ = std::chrono::steady_clock::now().time_since_epoch().count();
-      }
+      // A retry that is due (soon) does not wait for the next beat.
+      auto until = std::chrono::steady_clock::now() + kWorkerBeat;
+      if (retry_at_) until = std::min(until, *retry_at_);
+      queue_cv_.wait_until(lock, until, [this] { return stop_ || !queue_.empty(); });
       if (stop_) return;  // queued observations stay unacknowledged
-      job = std::move(queue_.front());
-      queue_.pop_front();
-      if (job.observation) --queued_observations_;
+      if (!queue_.empty()) {
+        job = std::move(queue_.front());
+        queue_.pop_front();
+        if (job.observation) --queued_observations_;
+        have_job = true;
+      }
     }
     try {
-      if (job.observation) {
+      if (have_job && job.observation) {
         handle_observation(*job.observation);
-      } else {
+      } else if (have_job) {
         job.control();
       }
+      retry_if_due();
     } catch (const std::exception& e) {
-      // Not a journal failure (handled where it happens): e.g. a chunk that failed to encode.
-      count("worker_errors");
-      set_error(std::string("worker: ") + e.what(), true);
-      log()->error("worker: {}", e.what());
+      // Not a write failure (the core keeps those pending): e.g. a chunk that failed to encode.
+      set_error(std::string("worker: ") + e.what());
+      report("worker_errors", std::string("worker: ") + e.what());
     }
     refresh_stats();
     worker_alive_ns_ = std::chrono::steady_clock::now().time_since_epoch().count();
   }
 }
 
+void MapService::retry_if_due() {
+  const auto now = std::chrono::steady_clock::now();
+  if (!core_->degraded()) {
+    retry_at_.reset();
+    return;
+  }
+  const auto interval = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(core_->config().retry_interval_s));
+  if (!retry_at_) {
+    retry_at_ = now + interval;  // the failure just happened: try again after one interval
+    return;
+  }
+  if (now < *retry_at_) return;
+  const MapRetryResult r = core_->retry();
+  retry_at_ = r.more ? now : now + interval;
+  if (r.journaled == 0) return;
+  count("observations_applied", r.journaled);
+  count("points_inserted", r.inserted);
+  for (const std::uint64_t key : r.changed_chunks) {
+    if (const PointChunk* chunk = core_->map().chunk(key)) publish_chunk(*chunk);
+  }
+  refresh_stats();
+  publish_status();
+}
+
 void MapService::handle_observation(const fuse_msgs::MapObservation& o) {
   if (const char* reason = refusal_reason(o)) {
     count("observations_refused");
-    if (worth_logging(count(reason))) {
-      log()->warn("observation session {} sequence {} refused: {} ({} so far)", o.session(), o.sequence_number(),
-                  reason, counter(reason));
-    }
+    report(reason, "observation session " + std::to_string(o.session()) + " sequence " +
+                       std::to_string(o.sequence_number()) + " refused: " + reason);
     return;
   }
 
@@ -207,40 +259,22 @@ void MapService::handle_observation(const fuse_msgs::MapObservation& o) {
   }
   if (not_finite > 0) count("points_not_finite", not_finite);  // the core drops them
 
-  last_session_ = o.session();
-  MapApplyResult r;
-  try {
-    r = core_->apply(o.session(), o.sequence_number(), o.t(), points);
-  } catch (const MapStorageError& e) {
-    // Not journaled, so not applied and not acknowledged: the sender re-sends it.
-    count("journal_errors");
-    set_error(std::string("journal: ") + e.what(), true);
-    {
-      std::lock_guard<std::mutex> lock(health_mutex_);
-      journal_failing_ = true;
-    }
-    log()->error("observation session {} sequence {} not journaled: {}", o.session(), o.sequence_number(), e.what());
-    publish_status();
-    return;
-  }
-
+  const MapApplyResult r =
+      core_->apply(o.session(), o.sequence_number(), o.t(), points, o.lowest_unacked());
+  if (r.rejected > not_finite) count("points_out_of_range", r.rejected - not_finite);
+  const char* outcome = r.duplicate ? "duplicate" : r.applied ? "applied" : r.pending ? "pending" : "frozen";
   if (r.duplicate) {
     count("observations_duplicate");
   } else if (r.applied) {
     count("observations_applied");
     count("points_inserted", r.inserted);
-    if (r.rejected > not_finite) count("points_out_of_range", r.rejected - not_finite);
-    std::lock_guard<std::mutex> lock(health_mutex_);
-    if (journal_failing_) {
-      journal_failing_ = false;
-      state_ = "running";
-    }
-  } else {
+  } else if (!r.pending) {
     count("observations_frozen");  // localization: acknowledged, the map unchanged
-  }
-  log()->debug("observation {}:{} ({} points): {}, {} inserted, {} chunks changed", o.session(), o.sequence_number(),
-               o.points().size(), r.duplicate ? "duplicate" : (r.applied ? "applied" : "frozen"), r.inserted,
-               r.changed_chunks.size());
+  }  // pending: counted by the core (observations_deferred), applied when journaled
+  log()->debug("observation {}:{} ({} points): {}, {} inserted, {} chunks changed, acknowledged up to {}",
+               o.session(), o.sequence_number(), o.points().size(), outcome, r.inserted, r.changed_chunks.size(),
+               r.acked);
+  refresh_stats();
 
   for (const std::uint64_t key : r.changed_chunks) {
     if (const PointChunk* chunk = core_->map().chunk(key)) publish_chunk(*chunk);
@@ -287,8 +321,20 @@ void MapService::handle_control(const fuse_msgs::MapControlRequest& request, fus
   reply.epoch(s.epoch);
   reply.points(s.points);
   reply.chunks(static_cast<std::uint32_t>(non_empty_chunks(core_->map())));
-  reply.acked_sequence(core_->acked(last_session_));
+  reply.acked_sequence(core_->acked(core_->newest_session()));
   reply.journal_records(s.journal_records);
+  reply.state(s.degraded ? "degraded" : "running");
+  reply.state_reason(s.degraded_reason.substr(0, kMaxErrorText));
+  reply.journal_errors(counter_of(s, "journal_errors"));
+  reply.pending_observations(s.pending);
+  reply.pending_bytes(s.pending_bytes);
+  reply.pending_dropped(counter_of(s, "pending_dropped"));
+  const LoadReport& load = core_->load_report();
+  reply.load_bytes_skipped(load.bytes_skipped());
+  reply.load_damaged_ranges(static_cast<std::uint32_t>(load.damaged.size()));
+  reply.load_observations_lost(load.journal_records_lost);
+  reply.load_chunks_lost(load.chunks_dropped);
+  reply.sessions(session_acks(*core_));
 }
 
 void MapService::load_map(const std::string& path, fuse_msgs::MapControlReply& reply) {
@@ -314,8 +360,7 @@ void MapService::load_map(const std::string& path, fuse_msgs::MapControlReply& r
   }
   if (!report.clean()) {
     set_error("load " + path + ": " + std::to_string(report.problems.size()) +
-                  " problem(s), the good part is kept; first: " + report.problems.front(),
-              false);
+              " problem(s), the good part is kept; first: " + report.problems.front());
   }
 
   // The new epoch everywhere, and an empty chunk where the old map had one the new map lacks, so
@@ -335,9 +380,10 @@ void MapService::load_map(const std::string& path, fuse_msgs::MapControlReply& r
 
 void MapService::publish_chunk(const PointChunk& chunk) {
   if (chunk.points.size() > kMaxChunkPoints) {
-    count("chunks_too_large");
-    log()->error("chunk ({}, {}, {}) holds {} points, more than a map/chunk sample carries ({}): not published",
-                 chunk.coord.x(), chunk.coord.y(), chunk.coord.z(), chunk.points.size(), kMaxChunkPoints);
+    report("chunks_too_large", "chunk (" + std::to_string(chunk.coord.x()) + ", " + std::to_string(chunk.coord.y()) +
+                                   ", " + std::to_string(chunk.coord.z()) + ") holds " +
+                                   std::to_string(chunk.points.size()) + " points, more than a map/chunk sample carries (" +
+                                   std::to_string(kMaxChunkPoints) + "): not published");
     return;
   }
   fuse_msgs::MapChunk m;
@@ -366,21 +412,23 @@ void MapService::publish_status() {
   fuse_msgs::MapStatus m;
   m.epoch(s.epoch);
   m.mode(s.mode);
-  m.session(last_session_);
-  m.acked_sequence(core_->acked(last_session_));
+  m.session(core_->newest_session());
+  m.acked_sequence(core_->acked(core_->newest_session()));
+  m.sessions(session_acks(*core_));
   m.points(s.points);
   m.chunks(static_cast<std::uint32_t>(non_empty_chunks(core_->map())));
   m.observations_applied(s.observations_applied);
   m.journal_records(s.journal_records);
   {
     std::lock_guard<std::mutex> lock(health_mutex_);
-    m.last_error(last_error_.substr(0, 255));
+    m.last_error(last_error_.substr(0, kMaxErrorText));
   }
   count(status_.publish(m) ? "statuses_published" : "status_publish_failures");
 }
 
 void MapService::refresh_stats() {
   const MapServerStats s = core_->stats();
+  const LoadReport& load = core_->load_report();
   std::lock_guard<std::mutex> lock(health_mutex_);
   counters_["map_epoch"] = s.epoch;
   counters_["map_points"] = s.points;
@@ -389,11 +437,24 @@ void MapService::refresh_stats() {
   counters_["journal_records"] = s.journal_records;
   counters_["snapshots"] = s.snapshots;
   counters_["localization"] = s.mode == "localization" ? 1 : 0;
-  // An automatic snapshot that failed: the observations are safe in the journal, so not degraded.
-  if (!s.last_error.empty() && s.last_error != snapshot_error_) {
-    snapshot_error_ = s.last_error;
-    last_error_ = "automatic snapshot: " + s.last_error;
+  counters_["pending_observations"] = s.pending;
+  counters_["pending_bytes"] = s.pending_bytes;
+  counters_["load_bytes_skipped"] = load.bytes_skipped();
+  counters_["load_damaged_ranges"] = load.damaged.size();
+  counters_["load_observations_lost"] = load.journal_records_lost;
+  counters_["load_chunks_lost"] = load.chunks_dropped;
+  for (const auto& [name, value] : s.counters) counters_[name] = value;  // journal_errors, pending_dropped, ...
+  const std::string state = s.degraded ? "degraded" : "running";
+  if (state != state_ && state_ != "stopping") {
+    if (s.degraded) {
+      log()->error("degraded: {}", s.degraded_reason);
+    } else if (state_ == "degraded") {
+      log()->info("running again: every observation is journaled and the map directory is writable");
+    }
+    state_ = state;
   }
+  if (s.degraded && s.degraded_reason != degraded_reason_) last_error_ = s.degraded_reason;
+  degraded_reason_ = s.degraded_reason;
 }
 
 std::uint64_t MapService::count(const std::string& counter, std::uint64_t n) {
@@ -401,16 +462,14 @@ std::uint64_t MapService::count(const std::string& counter, std::uint64_t n) {
   return counters_[counter] += n;
 }
 
-std::uint64_t MapService::counter(const std::string& counter) const {
+void MapService::report(const std::string& counter, const std::string& message) {
   std::lock_guard<std::mutex> lock(health_mutex_);
-  const auto it = counters_.find(counter);
-  return it == counters_.end() ? 0 : it->second;
+  reported_.count(counter, message);
 }
 
-void MapService::set_error(const std::string& error, bool degraded) {
+void MapService::set_error(const std::string& error) {
   std::lock_guard<std::mutex> lock(health_mutex_);
   last_error_ = error;
-  if (degraded) state_ = "degraded";
 }
 
 }  // namespace fuse::map_service

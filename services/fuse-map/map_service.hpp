@@ -7,13 +7,16 @@
 //   map/chunk       <- every chunk at start-up and after a load (with an empty chunk of the new
 //                      epoch for every key the loaded map no longer has), changed chunks after
 //                      each applied observation
-//   map/status      <- at start-up, after every observation (duplicates are acknowledged again)
-//                      and after a mode change or a load
+//   map/status      <- at start-up (every recent session's acknowledged sequence, as loaded),
+//                      after every observation (duplicates are acknowledged again), after
+//                      pending observations were journaled, and after a mode change or a load
 //
 // The DDS callbacks only enqueue. When the worker falls behind, observations beyond the queue's
 // bound are dropped and counted: they stay unacknowledged and their sender re-sends them.
-// A journal write that fails (MapStorageError) leaves the observation unacknowledged; the service
-// reports itself degraded and keeps running, the next journaled observation clears that.
+// When the journal cannot be written (full or read-only disk, an unwritable directory at
+// start-up) the core keeps observations pending and acknowledges nothing new; the service is
+// then "degraded" (health, map/status last_error, map/control stats say why), and the worker
+// calls the core's retry() every map_server.retry_interval_s until it is running again.
 #pragma once
 
 #include <atomic>
@@ -25,9 +28,11 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 
+#include "fuse/core/counters.hpp"
 #include "fuse/map/map_server_core.hpp"
 #include "fuse/service/health.hpp"
 #include "fuse/transport/rpc.hpp"
@@ -46,8 +51,9 @@ class MapService {
   static constexpr std::size_t kMaxChunkPoints = 1048576;
 
   /// Loads the map directory (damage is logged and kept for health), publishes every chunk and a
-  /// status, then starts serving. Throws MapStorageError when the directory cannot be used
-  /// (unwritable, or locked by another fuse-map), ConfigError on a bad config.
+  /// status, then starts serving; degraded when the directory cannot be written. Throws
+  /// MapDirectoryLocked when another fuse-map holds the directory, MapStorageError when its
+  /// files cannot be read, ConfigError on a bad config.
   MapService(const MapServerConfig& config, transport::Participant& participant);
   ~MapService();
   MapService(const MapService&) = delete;
@@ -88,25 +94,31 @@ class MapService {
   void publish_chunk(const PointChunk& chunk);
   void publish_all_chunks();
   void publish_status();
+  /// While degraded, calls the core's retry() when it is due; publishes what it journaled.
+  void retry_if_due();
+  /// Copies the core's state and counters into health (state running | degraded).
   void refresh_stats();
 
   /// Adds n to a health counter; returns its new value.
   std::uint64_t count(const std::string& counter, std::uint64_t n = 1);
-  std::uint64_t counter(const std::string& counter) const;
-  void set_error(const std::string& error, bool degraded);
+  /// Counts one occurrence of a problem and logs message, rate-limited per counter
+  /// (fuse::Counters: a flood of bad input or errors stays readable, with counts).
+  void report(const std::string& counter, const std::string& message);
+  void set_error(const std::string& error);
 
   std::unique_ptr<MapServerCore> core_;  ///< worker thread only (and the constructor)
-  std::uint64_t last_session_ = 0;       ///< session of the newest observation handled
+  /// Worker thread: when the next retry() is due while degraded (unset: not degraded).
+  std::optional<std::chrono::steady_clock::time_point> retry_at_;
 
   transport::Publisher<fuse_msgs::MapChunk> chunks_;
   transport::Publisher<fuse_msgs::MapStatus> status_;
 
   mutable std::mutex health_mutex_;
   std::map<std::string, std::uint64_t> counters_;
+  Counters reported_;  ///< counters whose occurrences are logged (rate-limited)
   std::string state_ = "starting";
   std::string last_error_;
-  bool journal_failing_ = false;  ///< degraded until an observation is journaled again
-  std::string snapshot_error_;    ///< the core's last automatic-snapshot error, already reported
+  std::string degraded_reason_;  ///< the core's, empty when running
 
   std::mutex queue_mutex_;
   std::condition_variable queue_cv_;

@@ -25,6 +25,7 @@ UpdateService::UpdateService(const SystemConfig& config, transport::Participant&
       session_(transport::random_id()),
       updater_(config.estimator),
       backlog_(config.estimator.preprocess, config.update.max_backlog_s),
+      unacked_({config.update.max_unacked, config.update.max_unacked_bytes, config.update.resend_after_s}),
       counters_(logger(kName)),
       corrections_(participant, transport::topics::kCorrection),
       observations_(participant, transport::topics::kObservation),
@@ -106,8 +107,7 @@ void UpdateService::on_status(const fuse_msgs::MapStatus& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   status_ = msg;
   have_status_ = true;
-  if (msg.session() != session_) return;
-  while (!unacked_.empty() && unacked_.front().msg.sequence_number() <= msg.acked_sequence()) unacked_.pop_front();
+  if (const auto acked = UnackedObservations::acked_in(msg, session_)) unacked_.acknowledge(*acked);
 }
 
 void UpdateService::sync_map(double timeout_s) {
@@ -388,28 +388,25 @@ void UpdateService::offer_to_map(double t) {
     m.points()[i].y(points[i].y());
     m.points()[i].z(points[i].z());
   }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    m.lowest_unacked(unacked_.lowest_unacked(m.sequence_number()));
+  }
   observations_.publish(m);
   std::lock_guard<std::mutex> lock(mutex_);
-  unacked_.push_back({std::move(m), Clock::now()});
-  if (unacked_.size() > config_.update.max_unacked) {
-    unacked_.pop_front();
-    counters_.count("observations_dropped_unacked",
-                    "more than update.max_unacked observations unacknowledged: the oldest is dropped");
+  for (const std::uint64_t sequence : unacked_.add(std::move(m), Clock::now())) {
+    last_error_ = "map observation " + std::to_string(sequence) + " given up: the map server has not acknowledged it and " +
+                  std::to_string(unacked_.size()) + " observations (" + std::to_string(unacked_.bytes()) +
+                  " bytes) wait for it (update.max_unacked, update.max_unacked_bytes); the persisted map lacks it";
+    counters_.count("observations_given_up", last_error_);
   }
 }
 
 void UpdateService::resend_unacked(bool all) {
-  const auto now = Clock::now();
-  const auto age = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config_.update.resend_after_s));
   std::vector<fuse_msgs::MapObservation> resend;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    for (auto& u : unacked_) {
-      if (all || now - u.sent >= age) {
-        resend.push_back(u.msg);
-        u.sent = now;
-      }
-    }
+    resend = unacked_.due(Clock::now(), all);
     if (!resend.empty()) counters_.add("observations_resent", resend.size());
   }
   for (const auto& m : resend) observations_.publish(m);
@@ -423,6 +420,7 @@ HealthSnapshot UpdateService::health() {
   for (const auto& [k, v] : updater_counts_) s.counters[k] += v;
   s.counters["observations_unacked"] = unacked_.size();
   s.counters["scans_queued"] = backlog_.size();
+  s.counters["observations_unacked_bytes"] = unacked_.bytes();
   s.last_error = last_error_;
   return s;
 }

@@ -10,7 +10,7 @@
 // the single-process estimator (the next scan must see them with no round trip); the map
 // server's chunks build the replica at start-up and after the map server replaces its map
 // (a new epoch). Observations carry (session, sequence); those the map server has not yet
-// acknowledged on map/status are re-sent.
+// acknowledged on map/status are re-sent, within bounds (unacked_observations.hpp).
 // While fuse-state cannot answer (restarting, absent) scans are held (ScanBacklog, bounded) and
 // processed in order once it can: a restart costs latency, not poses. Each history slice is
 // brought up to this instance's own newest posterior when fuse-state has not applied it yet, so
@@ -31,6 +31,7 @@
 #include "fuse/service/scan_backlog.hpp"
 #include "fuse/service/system_config.hpp"
 #include "fuse/transport/rpc.hpp"
+#include "unacked_observations.hpp"
 
 namespace fuse::service {
 
@@ -42,10 +43,6 @@ class UpdateService {
   void run();
 
  private:
-  struct Unacked {
-    fuse_msgs::MapObservation msg;
-    std::chrono::steady_clock::time_point sent;
-  };
   void on_scan(const std::uint8_t* data, std::size_t size);
   void on_chunk(const fuse_msgs::MapChunk& msg);
   void on_status(const fuse_msgs::MapStatus& msg);
@@ -81,7 +78,7 @@ class UpdateService {
   fuse_msgs::MapStatus status_;
   std::uint64_t replica_epoch_ = 0;
   std::string replica_mode_;
-  std::deque<Unacked> unacked_;
+  UnackedObservations unacked_;
   Counters counters_;
   std::map<std::string, std::uint64_t> updater_counts_;  ///< copied from the worker after each scan
   std::string last_error_;

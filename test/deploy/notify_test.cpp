@@ -7,7 +7,8 @@
 // test owns and WATCHDOG_USEC set, as systemd starts it. READY=1 must arrive, then WATCHDOG=1
 // repeatedly (no data flows: the services are alone on their DDS domain) with no gap as long as
 // the watchdog period, and after SIGTERM STOPPING=1 and exit code 0. fuse-map: observations
-// acknowledged before SIGTERM are in its map after a restart.
+// acknowledged before SIGTERM are in its map after a restart; on a map directory it cannot write
+// it is READY (degraded, in STATUS) and pinged; on one another fuse-map holds, no READY, exit 2.
 // DDS domain ids 80..89 belong to this file.
 #include <poll.h>
 #include <sys/socket.h>
@@ -303,6 +304,14 @@ INSTANTIATE_TEST_SUITE_P(Socket, NotifySocketKind, ::testing::Values(false, true
 
 constexpr auto kWatchdog = 400ms;  // WATCHDOG_USEC: pings expected every 200 ms
 
+/// Waits until `count` messages that are exactly `text` arrived after `from`.
+bool wait_until_count(NotifyLog& log, const std::string& text, Clock::time_point from, std::size_t count,
+                      std::chrono::milliseconds timeout) {
+  const auto end = Clock::now() + timeout;
+  while (log.times_of(text, from).size() < count && Clock::now() < end) std::this_thread::sleep_for(10ms);
+  return log.times_of(text, from).size() >= count;
+}
+
 struct ServiceCase {
   const char* name;
   int domain;
@@ -453,6 +462,54 @@ TEST(MapServiceSigterm, AcknowledgedObservationsSurviveARestart) {
   const auto exit = p.wait_for(30s);
   ASSERT_TRUE(exit.has_value());
   EXPECT_TRUE(exit->success()) << exit->describe();
+}
+
+// fuse-map on a map directory it cannot write: READY (it serves what it loaded), STATUS says
+// degraded, the watchdog keeps being pinged. On a directory another fuse-map holds: no READY,
+// exit code 2 (RestartPreventExitStatus=2: not restarted).
+TEST(MapServiceNotify, UnwritableDirectoryIsReadyDegradedLockedOneExitsWithTwo) {
+  const ServiceCase map{"fuse-map", 86, false};
+  const fs::path dir = scratch_dir("notify-map-unwritable");
+  std::ofstream(dir / "a_file") << "not a directory";
+  auto with_notify = [&](NotifySocket& socket, const fs::path& map_dir, const std::string& out) {
+    ScopedEnv env({{"NOTIFY_SOCKET", socket.name()},
+                   {"WATCHDOG_USEC", std::to_string(std::chrono::microseconds(kWatchdog).count())}},
+                  {"WATCHDOG_PID"});
+    std::vector<std::string> argv = service_argv(map, dir);
+    argv.back() = map_dir.string();  // --map-dir
+    return launch::Process::spawn(argv, out);
+  };
+  {
+    NotifySocket socket((dir / "unwritable.sock").string());
+    NotifyLog log(socket);
+    const std::string out = (dir / "unwritable.log").string();
+    auto p = with_notify(socket, dir / "a_file" / "map", out);
+    ASSERT_TRUE(log.wait_for("READY=1", 30s)) << log.dump() << "\n" << read_text(out);
+    EXPECT_NE(log.dump().find("STATUS=serving"), std::string::npos) << log.dump();
+    EXPECT_NE(log.dump().find("degraded"), std::string::npos) << log.dump();
+    const Clock::time_point ready = *log.first("READY=1");
+    ASSERT_TRUE(wait_until_count(log, "WATCHDOG=1", ready, 3, 10s)) << log.dump();
+    ASSERT_TRUE(p.signal(SIGTERM));
+    const auto exit = p.wait_for(30s);
+    ASSERT_TRUE(exit.has_value()) << read_text(out);
+    EXPECT_TRUE(exit->success()) << exit->describe() << "\n" << read_text(out);
+  }
+  NotifySocket first_socket((dir / "first.sock").string());
+  NotifyLog first_log(first_socket);
+  auto first = with_notify(first_socket, dir / "map", (dir / "first.log").string());
+  ASSERT_TRUE(first_log.wait_for("READY=1", 30s)) << first_log.dump() << "\n" << read_text(dir / "first.log");
+  NotifySocket second_socket((dir / "second.sock").string());
+  NotifyLog second_log(second_socket);
+  const std::string out = (dir / "second.log").string();
+  auto second = with_notify(second_socket, dir / "map", out);
+  const auto exit = second.wait_for(30s);
+  ASSERT_TRUE(exit.has_value()) << read_text(out);
+  EXPECT_FALSE(exit->signaled);
+  EXPECT_EQ(exit->code, 2) << read_text(out);
+  EXPECT_FALSE(second_log.first("READY=1").has_value()) << second_log.dump();
+  EXPECT_TRUE(first.is_running());
+  first.signal(SIGTERM);
+  EXPECT_TRUE(first.wait_for(30s).has_value());
 }
 
 }  // namespace

@@ -5,53 +5,17 @@
 #include <gtest/gtest.h>
 
 #include <limits>
-#include <random>
 
+#include "core_fixtures.hpp"
 #include "test_files.hpp"
 
 namespace fuse {
 namespace {
 
+using test::config_in;
+using test::expect_same_map;
+using test::scan;
 using test::TempDir;
-
-MapServerConfig config_in(const std::filesystem::path& dir, std::size_t snapshot_every = 0) {
-  MapServerConfig config;
-  config.directory = dir.string();
-  config.chunk_size = 8.0;  // small chunks: a scan touches several, some with negative coordinates
-  config.snapshot_every = snapshot_every;
-  config.policy.min_point_distance = 0.3;
-  return config;
-}
-
-/// A scan-like observation: points on the walls and floor of a corridor around x = 2·sequence - 15,
-/// overlapping the previous scans so that the policy skips part of them.
-std::vector<Eigen::Vector3f> scan(std::uint64_t session, std::uint64_t sequence, int n = 400) {
-  std::mt19937 rng(static_cast<std::uint32_t>(session * 1000 + sequence));
-  std::uniform_real_distribution<float> u(-1.f, 1.f);
-  const float cx = 2.f * static_cast<float>(sequence) - 15.f;
-  std::vector<Eigen::Vector3f> points;
-  for (int i = 0; i < n; ++i) {
-    const float x = cx + 6.f * u(rng);
-    switch (i % 3) {
-      case 0: points.emplace_back(x, -2.f, 1.5f + 1.5f * u(rng)); break;
-      case 1: points.emplace_back(x, 2.f, 1.5f + 1.5f * u(rng)); break;
-      default: points.emplace_back(x, 2.f * u(rng), -0.5f); break;
-    }
-  }
-  return points;
-}
-
-void expect_same_map(const PointMap& a, const PointMap& b) {
-  EXPECT_EQ(a.chunk_size(), b.chunk_size());
-  ASSERT_EQ(a.num_chunks(), b.num_chunks());
-  ASSERT_EQ(a.num_points(), b.num_points());
-  a.for_each_chunk([&](const PointChunk& ca) {
-    const PointChunk* cb = b.chunk(ca.key);
-    ASSERT_NE(cb, nullptr) << "chunk " << ca.coord.transpose();
-    EXPECT_EQ(ca.revision, cb->revision) << "chunk " << ca.coord.transpose();
-    EXPECT_EQ(ca.points, cb->points) << "chunk " << ca.coord.transpose();
-  });
-}
 
 /// Applies sequences [from, to] of two interleaved sessions.
 void feed(MapServerCore& core, std::uint64_t from, std::uint64_t to) {
@@ -169,7 +133,7 @@ TEST(MapServerCore, CrashBetweenSnapshotAndJournalResetAppliesNothingTwice) {
   EXPECT_EQ(core.stats().observations_applied, 12u);
 }
 
-TEST(MapServerCore, DamagedJournalKeepsTheGoodPrefixAndResumes) {
+TEST(MapServerCore, DamagedJournalKeepsEveryGoodRecordAndSnapshotsAtOnce) {
   TempDir dir;
   {
     MapServerCore core(config_in(dir.path()));
@@ -178,18 +142,30 @@ TEST(MapServerCore, DamagedJournalKeepsTheGoodPrefixAndResumes) {
   const auto journal = dir / MapStorage::kJournalName;
   const auto offsets = test::record_offsets(journal);
   ASSERT_EQ(offsets.size(), 8u);
-  test::flip_byte(journal, offsets[5] + 100);
+  test::flip_byte(journal, offsets[5] + 100);  // observation 6
   {
     MapServerCore core(config_in(dir.path()));
     EXPECT_FALSE(core.load_report().clean());
-    EXPECT_EQ(core.acked(3), 5u);  // the client re-sends 6..8
-    EXPECT_EQ(core.stats().observations_applied, 5u);
-    for (std::uint64_t s = 6; s <= 8; ++s) EXPECT_TRUE(core.apply(3, s, 0.0, scan(3, s)).applied);
+    EXPECT_EQ(core.load_report().journal_replayed, 7u) << "7 and 8 follow the damage and are kept";
+    EXPECT_EQ(core.load_report().journal_records_lost, 1u);
+    EXPECT_EQ(core.acked(3), 5u) << "6 is missing: 7 and 8 are durable above the hole";
+    EXPECT_TRUE(core.session_acks().covered(3, 8));
+    EXPECT_EQ(core.stats().observations_applied, 7u);
+    // The good contents were made durable at once; the damaged journal is kept beside.
+    EXPECT_EQ(core.stats().snapshots, 1u);
+    EXPECT_TRUE(std::filesystem::exists(dir / "map.journal.bad.1"));
+    EXPECT_FALSE(core.degraded()) << core.degraded_reason();
+    // The sender re-sends what it holds unacknowledged: 6 fills the hole, 7 and 8 are duplicates.
+    for (std::uint64_t s = 6; s <= 8; ++s) core.apply(3, s, 0.0, scan(3, s), 6);
+    EXPECT_EQ(core.acked(3), 8u);
+    EXPECT_EQ(core.stats().duplicates, 2u);
   }
   MapServerCore core(config_in(dir.path()));
   EXPECT_TRUE(core.load_report().clean()) << core.load_report().summary();
+  EXPECT_EQ(core.acked(3), 8u);
+  // Applied in the order they arrived: 1..5, 7, 8, then 6.
   MapServerCore reference(config_in(dir / "reference"));
-  for (std::uint64_t s = 1; s <= 8; ++s) reference.apply(3, s, 0.0, scan(3, s));
+  for (std::uint64_t s : {1, 2, 3, 4, 5, 7, 8, 6}) reference.apply(3, s, 0.0, scan(3, s));
   expect_same_map(reference.map(), core.map());
 }
 
@@ -214,14 +190,16 @@ TEST(MapServerCore, LocalizationModeFreezesTheMap) {
     EXPECT_THROW(core.set_mode("painting"), std::invalid_argument);
     core.set_mode("mapping");
     EXPECT_TRUE(core.apply(1, 4, 0.0, scan(1, 14)).duplicate);  // acknowledged in localization
-    EXPECT_TRUE(core.apply(1, 5, 0.0, scan(1, 15)).applied);
+    // The sender holds nothing unacknowledged below 5 (fuse-update says so with every observation).
+    EXPECT_TRUE(core.apply(1, 5, 0.0, scan(1, 15), 5).applied);
+    EXPECT_EQ(core.acked(1), 5u);
   }
   // Started in localization by config: nothing changes either.
   MapServerConfig config = config_in(dir.path());
   config.policy.mode = "localization";
   MapServerCore core(config);
   const std::size_t points = core.map().num_points();
-  EXPECT_EQ(core.acked(1), 5u);
+  EXPECT_EQ(core.acked(1), 5u) << "2..4 were settled by observation 5's lowest_unacked, journaled with it";
   EXPECT_FALSE(core.apply(1, 6, 0.0, scan(1, 20)).applied);
   EXPECT_EQ(core.map().num_points(), points);
 }
@@ -238,7 +216,7 @@ TEST(MapServerCore, SaveToFileAndLoadReplaceTheMapAndBumpTheEpoch) {
   }
   {
     MapServerCore b(config_in(dir / "b"));
-    b.apply(99, 40, 0.0, scan(99, 40));
+    b.apply(99, 40, 0.0, scan(99, 40), 40);  // a session older than this map: 1..39 acknowledged elsewhere
     EXPECT_EQ(b.epoch(), 0u);
     const LoadReport report = b.load(file);
     EXPECT_TRUE(report.snapshot_ok);
@@ -254,7 +232,7 @@ TEST(MapServerCore, SaveToFileAndLoadReplaceTheMapAndBumpTheEpoch) {
     EXPECT_FALSE(missing.problems.empty());
     EXPECT_EQ(b.epoch(), 1u);
     expect_same_map(saved, b.map());
-    b.apply(99, 41, 0.0, scan(99, 41));
+    b.apply(99, 41, 0.0, scan(99, 41), 41);
     saved = b.map();
   }
   // The replacement was durable: a restart serves the loaded map, its epoch and what followed.
@@ -335,22 +313,41 @@ TEST(MapServerConfig, LoadsValidatesAndRefusesUnknownKeys) {
   MapServerConfig config;
   ConfigNode node = ConfigNode::from_string(
       "directory: maps/site\nchunk_size: 25\nsnapshot_every: 50\nfsync: false\n"
+      "max_pending_bytes: 33554432\nretry_interval_s: 0.5\n"
       "policy: {mode: localization, min_point_distance: 0.1}\nindex: {voxel_size: 0.4}\n");
   config.load(node);
   EXPECT_EQ(config.directory, "maps/site");
   EXPECT_EQ(config.chunk_size, 25.0);
   EXPECT_EQ(config.snapshot_every, 50u);
   EXPECT_FALSE(config.fsync);
+  EXPECT_EQ(config.max_pending_bytes, 33554432u);
+  EXPECT_EQ(config.retry_interval_s, 0.5);
   EXPECT_EQ(config.policy.mode, "localization");
   EXPECT_EQ(config.index.voxel_size, 0.4);
   EXPECT_EQ(config.index.max_voxels, MapServerConfig::kNoEviction);
 
-  const char* bad[] = {"chunk_size: 0\n", "directory: ''\n", "index: {max_voxels: 5000}\n", "journal: true\n",
-                       "policy: {mode: painting}\n"};
-  for (const char* text : bad) {
+  // Each refused with a message naming the key.
+  const std::pair<const char*, const char*> bad[] = {
+      {"chunk_size: 0\n", "chunk_size"},
+      {"directory: ''\n", "directory"},
+      {"index: {max_voxels: 5000}\n", "index.max_voxels"},
+      {"journal: true\n", "journal"},
+      {"policy: {mode: painting}\n", "mode"},
+      {"max_pending_bytes: 1000\n", "max_pending_bytes"},
+      {"max_pending_bytes: lots\n", "max_pending_bytes"},
+      {"max_pending_bytes: -1\n", "max_pending_bytes"},
+      {"retry_interval_s: 0\n", "retry_interval_s"},
+      {"retry_interval_s: 1e9\n", "retry_interval_s"},
+      {"retry_interval_s: .nan\n", "retry_interval_s"}};
+  for (const auto& [text, key] : bad) {
     MapServerConfig c;
     ConfigNode n = ConfigNode::from_string(text);
-    EXPECT_THROW(c.load(n), ConfigError) << text;
+    try {
+      c.load(n);
+      ADD_FAILURE() << "accepted: " << text;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+    }
   }
 }
 

@@ -8,11 +8,13 @@
 #include <cmath>
 #include <fstream>
 
+#include "core_fixtures.hpp"
 #include "test_files.hpp"
 
 namespace fuse {
 namespace {
 
+using test::expect_same_map;
 using test::TempDir;
 
 MapObservation observation(std::uint64_t session, std::uint64_t sequence, int n = 50) {
@@ -40,19 +42,6 @@ PointMap sample_map(double chunk_size = 10.0) {
   return map;
 }
 
-void expect_same_map(const PointMap& a, const PointMap& b) {
-  EXPECT_EQ(a.chunk_size(), b.chunk_size());
-  ASSERT_EQ(a.num_chunks(), b.num_chunks());
-  ASSERT_EQ(a.num_points(), b.num_points());
-  a.for_each_chunk([&](const PointChunk& ca) {
-    const PointChunk* cb = b.chunk(ca.key);
-    ASSERT_NE(cb, nullptr) << "chunk " << ca.coord.transpose();
-    EXPECT_EQ(ca.coord, cb->coord);
-    EXPECT_EQ(ca.revision, cb->revision);
-    EXPECT_EQ(ca.points, cb->points);
-  });
-}
-
 struct Loaded {
   PointMap map;
   MapMeta meta;
@@ -66,6 +55,13 @@ Loaded load(MapStorage& storage) {
   return out;
 }
 
+/// A map directory whose journal holds observations 1..count of session.
+void write_journal(const std::filesystem::path& dir, std::uint64_t session, std::uint64_t count) {
+  MapStorage storage(dir);
+  load(storage);
+  for (std::uint64_t s = 1; s <= count; ++s) storage.append(observation(session, s));
+}
+
 TEST(MapStorage, SnapshotFileRoundTrip) {
   TempDir dir;
   const PointMap map = sample_map();
@@ -74,7 +70,9 @@ TEST(MapStorage, SnapshotFileRoundTrip) {
   meta.mode = "localization";
   meta.epoch = 3;
   meta.observations = 42;
-  meta.applied = {{7, 12}, {0xFFFFFFFFFFFFull, 1}};
+  meta.acks.restore(7, 12, {});
+  meta.acks.restore(0xFFFFFFFFFFFFull, 1, {{4, 6}, {9, 9}});  // durable above a hole, the most recent
+  meta.acks.restore(3, 0, {});                                 // nothing acknowledged, the newest
   const auto file = dir / "copy.snapshot";
   MapStorage::write_snapshot_file(file, map, meta);
   EXPECT_FALSE(std::filesystem::exists(dir / "copy.snapshot.tmp"));
@@ -91,7 +89,12 @@ TEST(MapStorage, SnapshotFileRoundTrip) {
   EXPECT_EQ(meta_back.mode, "localization");
   EXPECT_EQ(meta_back.epoch, 3u);
   EXPECT_EQ(meta_back.observations, 42u);
-  EXPECT_EQ(meta_back.applied, meta.applied);
+  EXPECT_EQ(meta_back.acks, meta.acks);
+  EXPECT_EQ(meta_back.acks.acked(0xFFFFFFFFFFFFull), 1u);
+  EXPECT_TRUE(meta_back.acks.covered(0xFFFFFFFFFFFFull, 5));
+  EXPECT_FALSE(meta_back.acks.covered(0xFFFFFFFFFFFFull, 7));
+  EXPECT_EQ(meta_back.acks.by_activity(), (std::vector<std::uint64_t>{3, 0xFFFFFFFFFFFFull, 7}))
+      << "the order of activity is kept";
 }
 
 TEST(MapStorage, JournalReplaysAppendedObservationsInOrder) {
@@ -118,8 +121,8 @@ TEST(MapStorage, JournalReplaysAppendedObservationsInOrder) {
     EXPECT_EQ(back.replayed[s - 1].points, expected.points);
   }
   EXPECT_TRUE(back.replayed[4].points.empty());
-  EXPECT_EQ(back.meta.applied.at(9), 4u);
-  EXPECT_EQ(back.meta.applied.at(5), 1u);
+  EXPECT_EQ(back.meta.acks.acked(9), 4u);
+  EXPECT_EQ(back.meta.acks.acked(5), 1u);
   EXPECT_EQ(back.meta.observations, 5u);
   EXPECT_EQ(storage.journal_records(), 5u);
 }
@@ -132,7 +135,7 @@ TEST(MapStorage, SnapshotRestartsTheJournal) {
     load(storage);
     storage.append(observation(1, 1));
     MapMeta meta;
-    meta.applied[1] = 1;
+    meta.acks.add_durable(1, 1);
     meta.observations = 1;
     storage.snapshot(map, meta);
     EXPECT_EQ(storage.journal_records(), 0u);
@@ -144,7 +147,7 @@ TEST(MapStorage, SnapshotRestartsTheJournal) {
   expect_same_map(map, back.map);
   ASSERT_EQ(back.replayed.size(), 1u);
   EXPECT_EQ(back.replayed[0].sequence, 2u);
-  EXPECT_EQ(back.meta.applied.at(1), 2u);
+  EXPECT_EQ(back.meta.acks.acked(1), 2u);
   EXPECT_EQ(back.meta.observations, 2u);
 }
 
@@ -158,7 +161,8 @@ TEST(MapStorage, CrashBetweenSnapshotRenameAndJournalResetAppliesNothingTwice) {
   }
   // The snapshot covers session 3 up to 3 and session 4 fully; the journal was not reset.
   MapMeta meta;
-  meta.applied = {{3, 3}, {4, 1}};
+  meta.acks.restore(3, 3, {});
+  meta.acks.restore(4, 1, {});
   MapStorage::write_snapshot_file(dir / MapStorage::kSnapshotName, sample_map(), meta);
 
   MapStorage storage(dir.path());
@@ -169,48 +173,111 @@ TEST(MapStorage, CrashBetweenSnapshotRenameAndJournalResetAppliesNothingTwice) {
   ASSERT_EQ(back.replayed.size(), 2u);
   EXPECT_EQ(back.replayed[0].sequence, 4u);
   EXPECT_EQ(back.replayed[1].sequence, 5u);
-  EXPECT_EQ(back.meta.applied.at(3), 5u);
+  EXPECT_EQ(back.meta.acks.acked(3), 5u);
 }
 
-TEST(MapStorage, CorruptedJournalRecordCutsTheTailAndAppendsContinue) {
+TEST(MapStorage, CorruptedJournalRecordIsSkippedAndEveryLaterRecordKept) {
   TempDir dir;
-  {
-    MapStorage storage(dir.path());
-    load(storage);
-    for (std::uint64_t s = 1; s <= 6; ++s) storage.append(observation(2, s));
-  }
+  write_journal(dir.path(), 2, 6);
   const auto journal = dir / MapStorage::kJournalName;
   const auto offsets = test::record_offsets(journal);
   ASSERT_EQ(offsets.size(), 6u);
+  const auto size = std::filesystem::file_size(journal);
   test::flip_byte(journal, offsets[3] + 20);  // inside the 4th record's bytes
   {
     MapStorage storage(dir.path());
     const Loaded back = load(storage);
     EXPECT_FALSE(back.report.clean());
-    EXPECT_EQ(back.replayed.size(), 3u);
-    EXPECT_EQ(back.report.journal_records, 3u);
-    EXPECT_EQ(back.report.journal_bytes_cut, std::filesystem::file_size(dir / "map.journal.cut.1"));
+    ASSERT_EQ(back.replayed.size(), 5u);
+    EXPECT_EQ(back.replayed[3].sequence, 5u);
+    EXPECT_EQ(back.replayed[4].points, observation(2, 6).points);
+    EXPECT_EQ(back.report.journal_records, 5u);
+    EXPECT_EQ(back.report.journal_records_lost, 1u);
+    EXPECT_EQ(back.report.journal_bytes_cut, 0u);
+    ASSERT_EQ(back.report.damaged.size(), 1u);
+    EXPECT_EQ(back.report.damaged[0].offset, offsets[3]);
+    EXPECT_EQ(back.report.damaged[0].bytes, offsets[4] - offsets[3]);
     EXPECT_TRUE(test::mentions(back.report.problems, "map.journal: byte " + std::to_string(offsets[3])))
         << back.report.problems.at(0);
     EXPECT_TRUE(test::mentions(back.report.problems, "CRC"));
-    EXPECT_EQ(std::filesystem::file_size(journal), offsets[3]);
-    EXPECT_EQ(back.meta.applied.at(2), 3u);
-    storage.append(observation(2, 4));
+    EXPECT_EQ(std::filesystem::file_size(journal), size) << "nothing cut: good records follow the damage";
+    EXPECT_EQ(back.meta.acks.acked(2), 3u);
+    EXPECT_TRUE(back.meta.acks.covered(2, 6));
+    EXPECT_TRUE(storage.damaged());
+    storage.append(observation(2, 4));  // appends follow the good records
+  }
+  {
+    MapStorage storage(dir.path());
+    const Loaded again = load(storage);
+    EXPECT_EQ(again.report.damaged.size(), 1u) << "still there until a snapshot settles it";
+    ASSERT_EQ(again.replayed.size(), 6u);
+    EXPECT_EQ(again.meta.acks.acked(2), 6u);
+    storage.snapshot(again.map, again.meta);
+    EXPECT_TRUE(std::filesystem::exists(dir / "map.journal.bad.1")) << "the damaged journal is kept beside";
+    EXPECT_EQ(std::filesystem::file_size(dir / "map.journal.bad.1"), size + offsets[4] - offsets[3]);
+  }
+  MapStorage storage(dir.path());
+  const Loaded settled = load(storage);
+  EXPECT_TRUE(settled.report.clean()) << settled.report.summary();
+  EXPECT_EQ(settled.meta.acks.acked(2), 6u);
+}
+
+TEST(MapStorage, CorruptedLastJournalRecordIsCutAndAppendsContinue) {
+  TempDir dir;
+  write_journal(dir.path(), 2, 6);
+  const auto journal = dir / MapStorage::kJournalName;
+  const auto offsets = test::record_offsets(journal);
+  test::flip_byte(journal, offsets[5] + 20);
+  {
+    MapStorage storage(dir.path());
+    const Loaded back = load(storage);
+    EXPECT_EQ(back.replayed.size(), 5u);
+    EXPECT_EQ(back.report.journal_bytes_cut, std::filesystem::file_size(dir / "map.journal.cut.1"));
+    EXPECT_TRUE(test::mentions(back.report.problems, "byte " + std::to_string(offsets[5])));
+    EXPECT_EQ(std::filesystem::file_size(journal), offsets[5]);
+    EXPECT_FALSE(storage.damaged()) << "a cut tail needs no snapshot";
+    storage.append(observation(2, 6));
   }
   MapStorage storage(dir.path());
   const Loaded again = load(storage);
   EXPECT_TRUE(again.report.clean()) << again.report.summary();
-  ASSERT_EQ(again.replayed.size(), 4u);
-  EXPECT_EQ(again.replayed[3].points, observation(2, 4).points);
+  ASSERT_EQ(again.replayed.size(), 6u);
+  EXPECT_EQ(again.replayed[5].points, observation(2, 6).points);
+}
+
+TEST(MapStorage, ResyncSkipsGarbageAndAZeroedBlock) {
+  TempDir dir;
+  write_journal(dir.path(), 3, 9);
+  const auto journal = dir / MapStorage::kJournalName;
+  const auto offsets = test::record_offsets(journal);
+  {
+    // Record 3 zeroed whole (a lost block), records 6 and 7 overwritten by bytes that look like
+    // frames (small lengths, zero CRCs).
+    std::fstream f(journal, std::ios::binary | std::ios::in | std::ios::out);
+    f.seekp(static_cast<std::streamoff>(offsets[2]));
+    f.write(std::string(offsets[3] - offsets[2], '\0').data(), static_cast<std::streamsize>(offsets[3] - offsets[2]));
+    std::string junk;
+    for (std::uint64_t at = offsets[5]; at < offsets[7]; ++at) junk.push_back(static_cast<char>(at % 7 == 0 ? 0x08 : at % 5));
+    f.seekp(static_cast<std::streamoff>(offsets[5]));
+    f.write(junk.data(), static_cast<std::streamsize>(junk.size()));
+  }
+  MapStorage storage(dir.path(), true, MapStorage::Access::kReadOnly);
+  const Loaded back = load(storage);
+  ASSERT_EQ(back.report.damaged.size(), 2u) << back.report.summary();
+  EXPECT_EQ(back.report.damaged[0].offset, offsets[2]);
+  EXPECT_EQ(back.report.damaged[0].bytes, offsets[3] - offsets[2]);
+  EXPECT_EQ(back.report.damaged[1].offset, offsets[5]);
+  EXPECT_EQ(back.report.damaged[1].bytes, offsets[7] - offsets[5]);
+  std::vector<std::uint64_t> sequences;
+  for (const auto& o : back.replayed) sequences.push_back(o.sequence);
+  EXPECT_EQ(sequences, (std::vector<std::uint64_t>{1, 2, 4, 5, 8, 9}));
+  EXPECT_EQ(back.report.journal_records_lost, 3u);
+  EXPECT_EQ(back.report.bytes_skipped(), offsets[3] - offsets[2] + offsets[7] - offsets[5]);
 }
 
 TEST(MapStorage, TruncatedJournalTailIsCutAndReported) {
   TempDir dir;
-  {
-    MapStorage storage(dir.path());
-    load(storage);
-    for (std::uint64_t s = 1; s <= 3; ++s) storage.append(observation(2, s));
-  }
+  write_journal(dir.path(), 2, 3);
   const auto journal = dir / MapStorage::kJournalName;
   const auto offsets = test::record_offsets(journal);
   test::truncate_to(journal, std::filesystem::file_size(journal) - 7);  // a torn last write
@@ -294,7 +361,7 @@ TEST(MapStorage, BadSnapshotHeaderStartsFromTheJournalOnly) {
     load(storage);
     storage.append(observation(1, 1));
     MapMeta meta;
-    meta.applied[1] = 1;
+    meta.acks.add_durable(1, 1);
     storage.snapshot(sample_map(), meta);
     storage.append(observation(1, 2));
   }
@@ -327,11 +394,7 @@ TEST(MapStorage, BadSnapshotHeaderStartsFromTheJournalOnly) {
 
 TEST(MapStorage, ReadOnlyAccessChangesNothing) {
   TempDir dir;
-  {
-    MapStorage storage(dir.path());
-    load(storage);
-    for (std::uint64_t s = 1; s <= 3; ++s) storage.append(observation(2, s));
-  }
+  write_journal(dir.path(), 2, 3);
   const auto journal = dir / MapStorage::kJournalName;
   const auto size = std::filesystem::file_size(journal);
   test::truncate_to(journal, size - 3);
@@ -343,12 +406,21 @@ TEST(MapStorage, ReadOnlyAccessChangesNothing) {
   EXPECT_THROW(reader.append(observation(2, 4)), std::logic_error);
 }
 
-TEST(MapStorage, IoFailuresThrowAndTheDirectoryIsLocked) {
+TEST(MapStorage, UnwritableDirectoryLoadsButDoesNotWriteAndTheDirectoryIsLocked) {
   TempDir dir;
   std::ofstream(dir / "a_file") << "x";
-  EXPECT_THROW(MapStorage(dir / "a_file" / "map"), MapStorageError);
+  MapStorage unwritable(dir / "a_file" / "map");  // not an error until something is written
+  const Loaded empty = load(unwritable);
+  EXPECT_EQ(empty.map.num_points(), 0u);
+  EXPECT_FALSE(unwritable.writable());
+  EXPECT_NE(unwritable.write_error().find("cannot create map directory"), std::string::npos) << unwritable.write_error();
+  EXPECT_FALSE(unwritable.make_writable());
+  EXPECT_EQ(unwritable.append(std::vector<const MapObservation*>{}), 0u);
+  EXPECT_THROW(unwritable.append(observation(1, 1)), MapStorageError);
+  EXPECT_THROW(unwritable.snapshot(sample_map(), MapMeta{}), MapStorageError);
+
   MapStorage first(dir / "map");
-  EXPECT_THROW(MapStorage(dir / "map"), MapStorageError);
+  EXPECT_THROW(MapStorage(dir / "map"), MapDirectoryLocked);
 }
 
 TEST(MapStorage, FsyncOffStillWritesEverything) {

@@ -4,6 +4,8 @@
 //
 // Observation points lie on a 1 m grid (well above the policy's min_point_distance), each point
 // in exactly one observation, so the map must hold exactly the points sent, each once.
+// Disk faults are real: a small tmpfs mounted as the map directory (root only, else skipped),
+// filled to its last page or remounted read-only.
 // DDS domain ids 50..59 belong to this file (59: a domain without a server).
 #include <fcntl.h>
 #include <signal.h>
@@ -29,6 +31,8 @@
 #include <tuple>
 #include <vector>
 
+#include "../map_storage/tmpfs_mount.hpp"
+#include "fuse/map/map_server_core.hpp"
 #include "fuse/transport/rpc.hpp"
 
 extern char** environ;
@@ -187,6 +191,9 @@ std::map<Point, int> points_of(std::uint64_t first, std::uint64_t last, float x_
   return points;
 }
 
+/// How often fuse-map retries a map directory it cannot write, in these tests.
+constexpr const char* kFastRetry = "  retry_interval_s: 0.3\n";
+
 transport::TransportConfig transport_config(int domain) {
   EXPECT_GE(domain, 50);
   EXPECT_LE(domain, 59);
@@ -209,10 +216,16 @@ class MapClient {
         status_(*participant_, transport::topics::kMapStatus,
                 [this](const fuse_msgs::MapStatus& s) {
                   std::lock_guard<std::mutex> lock(mutex_);
+                  if (!first_status_) first_status_ = s;
                   last_status_ = s;
                   ++statuses_;
                   auto& acked = acked_[s.session()];
                   acked = std::max(acked, s.acked_sequence());
+                  for (const fuse_msgs::SessionAck& a : s.sessions()) {
+                    auto& listed = acked_[a.session()];
+                    if (a.acked_sequence() < listed) ++acks_gone_back_;
+                    listed = std::max(listed, a.acked_sequence());
+                  }
                 }),
         health_(*participant_, transport::topics::kHealth, [this](const fuse_msgs::Health& h) {
           if (h.service().to_string() != "fuse-map") return;
@@ -250,6 +263,16 @@ class MapClient {
   std::optional<fuse_msgs::MapStatus> status() {
     std::lock_guard<std::mutex> lock(mutex_);
     return last_status_;
+  }
+  /// The first status this client received.
+  std::optional<fuse_msgs::MapStatus> first_status() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return first_status_;
+  }
+  /// Times a listed acknowledgement was lower than one seen before (one server, no restart: 0).
+  std::size_t acks_gone_back() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return acks_gone_back_;
   }
   std::size_t statuses() {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -309,8 +332,8 @@ class MapClient {
   std::unique_ptr<transport::Participant> participant_;
   std::mutex mutex_;
   std::map<std::uint64_t, fuse_msgs::MapChunk> received_chunks_;
-  std::optional<fuse_msgs::MapStatus> last_status_;
-  std::size_t statuses_ = 0;
+  std::optional<fuse_msgs::MapStatus> first_status_, last_status_;
+  std::size_t statuses_ = 0, acks_gone_back_ = 0;
   std::map<std::uint64_t, std::uint64_t> acked_;
   std::vector<fuse_msgs::Health> health_samples_;
   transport::Publisher<fuse_msgs::MapObservation> observations_;
@@ -621,10 +644,209 @@ TEST(MapService, RefusesInvalidObservationsAndReportsThemOnHealth) {
   EXPECT_NE(health->last_error().to_string().find("map load"), std::string::npos) << health->last_error().to_string();
   EXPECT_NE(client.status()->last_error().to_string().find("map load"), std::string::npos);
   EXPECT_NE(read_text(dir.str("fuse-map.log")).find("map.journal"), std::string::npos) << "the damage is logged";
+  const auto stats = ctl(dir, {"--domain", "53", "--json", "stats"});
+  ASSERT_EQ(stats.code, 0) << stats.out;
+  EXPECT_EQ(json_field(stats.out, "load_damaged_ranges"), "1");
+  EXPECT_EQ(json_field(stats.out, "load_bytes_skipped"), "36") << "the garbage record to the end, frame included";
 
   EXPECT_TRUE(server->running());
   server->signal(SIGTERM);
   EXPECT_EQ(server->wait(10s), 0);
+}
+
+// ---- restart: the acknowledgements as loaded, published at once --------------------------------
+
+TEST(MapService, RestartPublishesEveryRecentSessionsAcknowledgementAtOnce) {
+  TempDir dir;
+  const std::string config = write_config(dir, 54);
+  auto server = start_map_server(dir, config);
+  {
+    MapClient client(54);
+    ASSERT_TRUE(client.wait_for_server()) << read_text(dir.str("fuse-map.log"));
+    for (std::uint64_t q = 1; q <= 5; ++q) client.publish(observation(3, q));
+    ASSERT_TRUE(client.wait_acked(3, 5));
+    for (std::uint64_t q = 1; q <= 7; ++q) client.publish(observation(4, q));
+    ASSERT_TRUE(client.wait_acked(4, 7));
+    // A session older than this map: its sender holds nothing below 100.
+    for (std::uint64_t q = 100; q <= 102; ++q) {
+      auto o = observation(5, q);
+      o.lowest_unacked(100);
+      client.publish(o);
+    }
+    ASSERT_TRUE(client.wait_acked(5, 102)) << read_text(dir.str("fuse-map.log"));
+    server->signal(SIGTERM);
+    ASSERT_EQ(server->wait(10s), 0) << read_text(dir.str("fuse-map.log"));
+  }
+  MapClient client(54);  // listening before the restart: its first status is the start-up one
+  server = start_map_server(dir, config);
+  ASSERT_TRUE(wait_until([&] { return client.first_status().has_value(); }, 15s)) << read_text(dir.str("fuse-map.log"));
+  const fuse_msgs::MapStatus first = *client.first_status();
+  EXPECT_EQ(first.session(), 5u) << "the most recently active session";
+  EXPECT_EQ(first.acked_sequence(), 102u);
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> listed;
+  for (const auto& a : first.sessions()) listed.emplace_back(a.session(), a.acked_sequence());
+  EXPECT_EQ(listed, (std::vector<std::pair<std::uint64_t, std::uint64_t>>{{5, 102}, {4, 7}, {3, 5}}))
+      << "newest first, as loaded, before any observation arrived";
+
+  const auto r = ctl(dir, {"--domain", "54", "--json", "stats"});
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(json_field(r.out, "state"), "running");
+  EXPECT_NE(r.out.find(R"("sessions":[{"session":"0000000000000005","acked_sequence":102},)"), std::string::npos)
+      << r.out;
+  server->signal(SIGTERM);
+  EXPECT_EQ(server->wait(10s), 0);
+}
+
+// ---- a map directory that cannot be written: degraded, not down ----------------------------------
+
+/// The persisted map directory read back as an export tool reads it.
+std::unique_ptr<MapServerCore> read_back(const fs::path& map_dir) {
+  MapServerConfig config;
+  config.directory = map_dir.string();
+  return std::make_unique<MapServerCore>(config, MapStorage::Access::kReadOnly);
+}
+
+std::size_t count_lines(const std::string& text, const std::string& part) {
+  std::size_t n = 0;
+  for (std::size_t at = text.find(part); at != std::string::npos; at = text.find(part, at + 1)) ++n;
+  return n;
+}
+
+TEST(MapService, ReadOnlyMapDirectoryAtStartIsServedDegradedAndRecovers) {
+  TempDir dir;
+  test::TmpfsMount disk(dir.path() / "map", std::size_t{4} << 20);
+  if (!disk.ok()) GTEST_SKIP() << disk.why();
+  const std::string config = write_config(dir, 55, kFastRetry);
+  constexpr std::uint64_t kSession = 7;
+  auto server = start_map_server(dir, config);
+  {
+    MapClient client(55);
+    ASSERT_TRUE(client.wait_for_server()) << read_text(dir.str("fuse-map.log"));
+    ASSERT_TRUE(client.send_until_acked(kSession, 1, 10));
+    server->signal(SIGTERM);
+    ASSERT_EQ(server->wait(10s), 0);
+  }
+  ASSERT_TRUE(disk.set_read_only(true)) << disk.why();
+
+  MapClient client(55);
+  server = start_map_server(dir, config);
+  ASSERT_TRUE(client.wait_for_server()) << read_text(dir.str("fuse-map.log"));
+  // It starts (no exit, no crash loop), serves what it loaded and says why it is degraded.
+  ASSERT_TRUE(wait_until([&] { return client.first_status().has_value(); }, 10s));
+  EXPECT_EQ(client.first_status()->acked_sequence(), 10u);
+  ASSERT_TRUE(wait_until([&] { return client.health() && client.health()->state().to_string() == "degraded"; }, 10s))
+      << read_text(dir.str("fuse-map.log"));
+  EXPECT_NE(client.health()->last_error().to_string().find("Read-only file system"), std::string::npos)
+      << client.health()->last_error().to_string();
+  ASSERT_TRUE(client.wait_map_complete());
+  EXPECT_EQ(client.map_points(), points_of(1, 10));
+
+  // Nothing new is acknowledged: observations wait in memory.
+  for (std::uint64_t q = 11; q <= 20; ++q) client.publish(observation(kSession, q));
+  ASSERT_TRUE(wait_until([&] { return client.counter("observations_deferred") >= 10; }, 10s))
+      << read_text(dir.str("fuse-map.log"));
+  EXPECT_EQ(client.acked(kSession), 10u);
+  auto r = ctl(dir, {"--domain", "55", "--json", "stats"});
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(json_field(r.out, "state"), "degraded");
+  EXPECT_NE(json_field(r.out, "state_reason").find("Read-only file system"), std::string::npos) << r.out;
+  EXPECT_EQ(json_field(r.out, "pending_observations"), "10");
+  EXPECT_TRUE(server->running());
+
+  ASSERT_TRUE(disk.set_read_only(false)) << disk.why();
+  ASSERT_TRUE(client.send_until_acked(kSession, 11, 20)) << read_text(dir.str("fuse-map.log"));
+  ASSERT_TRUE(wait_until([&] { return client.health()->state().to_string() == "running"; }, 10s));
+  ASSERT_TRUE(wait_until([&] { return client.chunk_point_count() == 20 * kPointsPerObservation; }, 10s));
+  EXPECT_EQ(client.map_points(), points_of(1, 20));
+  EXPECT_EQ(client.acks_gone_back(), 0u);
+  server->signal(SIGTERM);
+  ASSERT_EQ(server->wait(10s), 0);
+  const auto persisted = read_back(dir.path() / "map");
+  EXPECT_EQ(persisted->acked(kSession), 20u);
+  EXPECT_EQ(persisted->map().num_points(), 20 * kPointsPerObservation);
+}
+
+TEST(MapService, FullDiskAndReadOnlyRemountWhileRunningKeepItUpAndLoseNothing) {
+  TempDir dir;
+  test::TmpfsMount disk(dir.path() / "map", std::size_t{2} << 20);
+  if (!disk.ok()) GTEST_SKIP() << disk.why();
+  constexpr std::uint64_t kSession = 9;
+  auto server = start_map_server(dir, write_config(dir, 56, kFastRetry));
+  MapClient client(56);
+  ASSERT_TRUE(client.wait_for_server()) << read_text(dir.str("fuse-map.log"));
+  ASSERT_TRUE(client.send_until_acked(kSession, 1, 10));
+
+  // Full: degraded, nothing new acknowledged, the observations kept in memory and counted. (The
+  // journal's last page may still take the first few.)
+  ASSERT_GT(disk.fill(), 0u);
+  for (std::uint64_t q = 11; q <= 40; ++q) client.publish(observation(kSession, q));
+  const auto handled = [&] { return client.counter("observations_applied") + client.counter("observations_deferred"); };
+  ASSERT_TRUE(wait_until([&] { return handled() >= 40; }, 10s)) << read_text(dir.str("fuse-map.log"));
+  const std::uint64_t journaled = client.counter("observations_applied");
+  ASSERT_LT(journaled, 40u) << "the disk was not full";
+  ASSERT_TRUE(wait_until([&] { return client.acked(kSession) == journaled; }, 5s));
+  ASSERT_TRUE(wait_until([&] { return client.counter("journal_errors") >= 2; }, 10s)) << "retried, and failed again";
+  EXPECT_EQ(client.acked(kSession), journaled) << "nothing acknowledged beyond what was journaled";
+  const std::string pending = std::to_string(40 - journaled);
+  auto r = ctl(dir, {"--domain", "56", "--json", "stats"});
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(json_field(r.out, "state"), "degraded");
+  EXPECT_NE(json_field(r.out, "state_reason").find("No space left on device"), std::string::npos) << r.out;
+  EXPECT_EQ(json_field(r.out, "pending_observations"), pending);
+  EXPECT_NE(json_field(r.out, "journal_errors"), "0");
+  EXPECT_EQ(json_field(r.out, "acked_sequence"), std::to_string(journaled));
+  r = ctl(dir, {"--domain", "56", "stats"});
+  EXPECT_NE(r.out.find("state     degraded (not journaling: "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("pending   " + pending + " observations"), std::string::npos) << r.out;
+  EXPECT_NE(client.status()->last_error().to_string().find("No space left on device"), std::string::npos);
+
+  // Space again: everything journaled, in order, and acknowledged.
+  disk.remove();
+  ASSERT_TRUE(client.send_until_acked(kSession, 11, 40)) << read_text(dir.str("fuse-map.log"));
+  ASSERT_TRUE(wait_until([&] { return client.health()->state().to_string() == "running"; }, 10s));
+
+  // Read-only while running (fuse-map holds no file open for writing between writes).
+  ASSERT_TRUE(disk.set_read_only(true)) << disk.why();
+  const std::uint64_t deferred = client.counter("observations_deferred");
+  for (std::uint64_t q = 41; q <= 50; ++q) client.publish(observation(kSession, q));
+  ASSERT_TRUE(wait_until([&] { return client.counter("observations_deferred") >= deferred + 10; }, 10s))
+      << read_text(dir.str("fuse-map.log"));
+  EXPECT_EQ(client.acked(kSession), 40u);
+  ASSERT_TRUE(wait_until([&] { return client.health()->state().to_string() == "degraded"; }, 10s));
+  EXPECT_NE(client.health()->last_error().to_string().find("Read-only file system"), std::string::npos);
+  ASSERT_TRUE(disk.set_read_only(false)) << disk.why();
+  ASSERT_TRUE(client.send_until_acked(kSession, 41, 50)) << read_text(dir.str("fuse-map.log"));
+  ASSERT_TRUE(wait_until([&] { return client.health()->state().to_string() == "running"; }, 10s));
+
+  ASSERT_TRUE(wait_until([&] { return client.chunk_point_count() == 50 * kPointsPerObservation; }, 10s));
+  EXPECT_EQ(client.map_points(), points_of(1, 50)) << "every observation exactly once";
+  EXPECT_EQ(client.acks_gone_back(), 0u);
+  EXPECT_TRUE(server->running());
+  server->signal(SIGTERM);
+  ASSERT_EQ(server->wait(10s), 0);
+  // The log says it a few times with counts, not once per observation, re-send or retry.
+  const std::string log = read_text(dir.str("fuse-map.log"));
+  EXPECT_LE(count_lines(log, "'journal_errors'"), 10u) << log;
+  EXPECT_LE(count_lines(log, "'observations_deferred'"), 10u) << log;
+  const auto persisted = read_back(dir.path() / "map");
+  EXPECT_EQ(persisted->acked(kSession), 50u);
+  EXPECT_EQ(persisted->map().num_points(), 50 * kPointsPerObservation);
+}
+
+TEST(MapService, SecondServerOnALockedMapDirectoryExitsWithCode2) {
+  TempDir dir;
+  const std::string config = write_config(dir, 57);
+  auto first = start_map_server(dir, config);
+  MapClient client(57);
+  ASSERT_TRUE(client.wait_for_server()) << read_text(dir.str("fuse-map.log"));
+  const std::string log = dir.str("second.log");
+  Process second({FUSE_MAP_BIN, "--config", config, "--map-dir", dir.str("map")}, log);
+  ASSERT_TRUE(second.started());
+  EXPECT_EQ(second.wait(30s), 2) << read_text(log);
+  EXPECT_NE(read_text(log).find("another fuse-map"), std::string::npos) << read_text(log);
+  EXPECT_TRUE(first->running());
+  first->signal(SIGTERM);
+  EXPECT_EQ(first->wait(10s), 0);
 }
 
 }  // namespace

@@ -187,7 +187,17 @@ inline fuse_msgs::MapObservation make_observation(int seed) {
   m.t(v(seed, 0));
   m.sensor_pose(pose(seed, 1));
   m.points(points3f(seed, 23));
+  m.lowest_unacked(seed + 1);
   return m;
+}
+
+inline std::vector<fuse_msgs::SessionAck> session_acks(int seed) {
+  std::vector<fuse_msgs::SessionAck> acks(3);
+  for (std::size_t i = 0; i < acks.size(); ++i) {
+    acks[i].session(0xFEEDull + seed + i);
+    acks[i].acked_sequence(70 + i);
+  }
+  return acks;
 }
 
 inline fuse_msgs::MapChunk make_chunk(std::uint64_t key, std::uint64_t revision, int seed = 1) {
@@ -214,6 +224,7 @@ inline fuse_msgs::MapStatus make_map_status(int seed) {
   m.observations_applied(99);
   m.journal_records(1000);
   m.last_error("disk full? no: seed " + std::to_string(seed));
+  m.sessions(session_acks(seed));
   return m;
 }
 
@@ -304,6 +315,17 @@ inline fuse_msgs::MapControlReply make_map_control_reply(int seed) {
   m.acked_sequence(41);
   m.journal_records(8);
   m.path("maps/out.fmap");
+  m.state("degraded");
+  m.state_reason("map directory not writable: Read-only file system");
+  m.journal_errors(2);
+  m.pending_observations(17);
+  m.pending_bytes(204800);
+  m.pending_dropped(1);
+  m.load_bytes_skipped(64);
+  m.load_damaged_ranges(1);
+  m.load_observations_lost(1);
+  m.load_chunks_lost(0);
+  m.sessions(session_acks(seed));
   return m;
 }
 

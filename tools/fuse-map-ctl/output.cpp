@@ -25,6 +25,20 @@ std::string json_string(const std::string& text) {
 std::string line(const std::string& name, const std::string& value) {
   return name + std::string(name.size() < 10 ? 10 - name.size() : 1, ' ') + value + "\n";
 }
+
+/// A session id as fuse-update logs it: 16 hex digits.
+std::string session_hex(std::uint64_t session) {
+  char buf[24];
+  std::snprintf(buf, sizeof(buf), "%016llx", static_cast<unsigned long long>(session));
+  return buf;
+}
+
+std::string load_damage(const fuse_msgs::MapControlReply& r) {
+  if (r.load_damaged_ranges() == 0 && r.load_chunks_lost() == 0) return "none";
+  return std::to_string(r.load_bytes_skipped()) + " bytes in " + std::to_string(r.load_damaged_ranges()) +
+         " damaged ranges skipped; " + std::to_string(r.load_observations_lost()) + " journal observations, " +
+         std::to_string(r.load_chunks_lost()) + " snapshot chunks lost";
+}
 }  // namespace
 
 std::string status_name(fuse_msgs::RpcStatus status) {
@@ -39,22 +53,49 @@ std::string status_name(fuse_msgs::RpcStatus status) {
 }
 
 std::string format_text(const fuse_msgs::MapControlReply& r) {
-  std::string s = line("mode", r.mode().to_string()) + line("epoch", std::to_string(r.epoch())) +
+  const std::string state = r.state().to_string();
+  std::string s = line("state", r.state_reason().size() > 0 ? state + " (" + r.state_reason().to_string() + ")" : state) +
+                  line("mode", r.mode().to_string()) + line("epoch", std::to_string(r.epoch())) +
                   line("points", std::to_string(r.points())) + line("chunks", std::to_string(r.chunks())) +
                   line("acked", std::to_string(r.acked_sequence())) +
-                  line("journal", std::to_string(r.journal_records()) + " records");
+                  line("journal", std::to_string(r.journal_records()) + " records, " +
+                                      std::to_string(r.journal_errors()) + " write errors") +
+                  line("pending", std::to_string(r.pending_observations()) + " observations (" +
+                                      std::to_string(r.pending_bytes()) + " bytes), " +
+                                      std::to_string(r.pending_dropped()) + " dropped") +
+                  line("damage", load_damage(r));
+  for (const fuse_msgs::SessionAck& a : r.sessions()) {
+    s += line("session", session_hex(a.session()) + " acked " + std::to_string(a.acked_sequence()));
+  }
   if (r.path().size() > 0) s += line("path", r.path().to_string());
   return s;
 }
 
 std::string format_json(const std::string& command, fuse_msgs::RpcStatus status, const std::string& message,
                         const fuse_msgs::MapControlReply& r) {
+  // Sessions as strings of 16 hex digits: 64-bit ids do not survive JSON numbers in every reader.
+  std::string sessions = "[";
+  for (const fuse_msgs::SessionAck& a : r.sessions()) {
+    if (sessions.size() > 1) sessions += ",";
+    sessions += "{\"session\":" + json_string(session_hex(a.session())) +
+                ",\"acked_sequence\":" + std::to_string(a.acked_sequence()) + "}";
+  }
+  sessions += "]";
   return "{\"command\":" + json_string(command) + ",\"status\":" + json_string(status_name(status)) +
          ",\"message\":" + json_string(message) + ",\"mode\":" + json_string(r.mode().to_string()) +
          ",\"epoch\":" + std::to_string(r.epoch()) + ",\"points\":" + std::to_string(r.points()) +
          ",\"chunks\":" + std::to_string(r.chunks()) + ",\"acked_sequence\":" + std::to_string(r.acked_sequence()) +
          ",\"journal_records\":" + std::to_string(r.journal_records()) +
-         ",\"path\":" + json_string(r.path().to_string()) + "}\n";
+         ",\"path\":" + json_string(r.path().to_string()) + ",\"state\":" + json_string(r.state().to_string()) +
+         ",\"state_reason\":" + json_string(r.state_reason().to_string()) +
+         ",\"journal_errors\":" + std::to_string(r.journal_errors()) +
+         ",\"pending_observations\":" + std::to_string(r.pending_observations()) +
+         ",\"pending_bytes\":" + std::to_string(r.pending_bytes()) +
+         ",\"pending_dropped\":" + std::to_string(r.pending_dropped()) +
+         ",\"load_bytes_skipped\":" + std::to_string(r.load_bytes_skipped()) +
+         ",\"load_damaged_ranges\":" + std::to_string(r.load_damaged_ranges()) +
+         ",\"load_observations_lost\":" + std::to_string(r.load_observations_lost()) +
+         ",\"load_chunks_lost\":" + std::to_string(r.load_chunks_lost()) + ",\"sessions\":" + sessions + "}\n";
 }
 
 }  // namespace fuse::map_ctl

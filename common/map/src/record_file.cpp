@@ -1,8 +1,10 @@
 #include "record_file.hpp"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <system_error>
@@ -13,6 +15,9 @@
 namespace fuse::record_file {
 
 namespace {
+
+/// Bytes resync() reads ahead at a time.
+constexpr std::uint64_t kWindowBytes = 1u << 20;
 
 void put_u32(std::string& out, std::uint32_t v) {
   for (int i = 0; i < 4; ++i) out.push_back(static_cast<char>((v >> (8 * i)) & 0xFFu));
@@ -42,16 +47,51 @@ void append_frame(std::string& out, const std::string& payload) {
   out += payload;
 }
 
-FrameReader::FrameReader(const std::filesystem::path& file) : in_(file, std::ios::binary) {
-  if (!in_.is_open()) return;
-  std::error_code ec;
-  size_ = std::filesystem::file_size(file, ec);
-  if (ec) in_.close();
+FrameReader::FrameReader(const std::filesystem::path& file) {
+  fd_ = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd_ < 0) return;
+  struct stat st {};
+  if (::fstat(fd_, &st) != 0) {
+    ::close(fd_);
+    fd_ = -1;
+    return;
+  }
+  size_ = static_cast<std::uint64_t>(st.st_size);
+}
+
+FrameReader::~FrameReader() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+bool FrameReader::read_at(std::uint64_t offset, char* out, std::size_t n) const {
+  if (offset > size_ || n > size_ - offset) return false;
+  while (n > 0) {
+    const ssize_t got = ::pread(fd_, out, n, static_cast<off_t>(offset));
+    if (got < 0 && errno == EINTR) continue;
+    if (got <= 0) return false;
+    out += got;
+    offset += static_cast<std::uint64_t>(got);
+    n -= static_cast<std::size_t>(got);
+  }
+  return true;
+}
+
+const char* FrameReader::window(std::uint64_t offset, std::size_t n) {
+  if (offset < window_offset_ || offset + n > window_offset_ + window_.size()) {
+    const std::uint64_t want = std::max<std::uint64_t>(n, kWindowBytes);
+    window_.resize(static_cast<std::size_t>(std::min<std::uint64_t>(want, size_ - std::min(offset, size_))));
+    window_offset_ = offset;
+    if (window_.size() < n || !read_at(offset, window_.data(), window_.size())) {
+      window_.clear();
+      return nullptr;
+    }
+  }
+  return window_.data() + (offset - window_offset_);
 }
 
 bool FrameReader::read_file_header(const char* magic, std::uint32_t& version) {
   char header[kFileHeaderSize];
-  if (size_ < kFileHeaderSize || !in_.read(header, kFileHeaderSize)) return false;
+  if (!read_at(0, header, kFileHeaderSize)) return false;
   offset_ = kFileHeaderSize;
   version = get_u32(header + kMagicSize);
   return std::memcmp(header, magic, kMagicSize) == 0;
@@ -62,16 +102,37 @@ FrameStatus FrameReader::next(std::string& payload) {
   frame_length_ = 0;
   if (offset_ == size_) return FrameStatus::kEnd;
   char header[kFrameHeaderSize];
-  if (size_ - offset_ < kFrameHeaderSize || !in_.read(header, kFrameHeaderSize)) return FrameStatus::kTruncated;
+  if (!read_at(offset_, header, kFrameHeaderSize)) return FrameStatus::kTruncated;
   frame_length_ = get_u32(header);
   const std::uint32_t crc = get_u32(header + 4);
   // The length is checked against what is left before allocating: a corrupted length then
   // reads as a truncated file instead of a huge allocation.
   if (frame_length_ > size_ - offset_ - kFrameHeaderSize) return FrameStatus::kTruncated;
   payload.resize(frame_length_);
-  if (frame_length_ > 0 && !in_.read(payload.data(), frame_length_)) return FrameStatus::kTruncated;
+  if (!read_at(offset_ + kFrameHeaderSize, payload.data(), frame_length_)) return FrameStatus::kTruncated;
   offset_ += kFrameHeaderSize + frame_length_;
   return io::crc32(payload.data(), payload.size()) == crc ? FrameStatus::kOk : FrameStatus::kBadCrc;
+}
+
+bool FrameReader::resync(char first_byte, const Validator& valid) {
+  std::string payload;
+  for (std::uint64_t at = frame_offset_ + 1; at + kFrameHeaderSize < size_; ++at) {
+    const char* header = window(at, kFrameHeaderSize + 1);
+    if (header == nullptr) break;
+    // Cheap tests first: the length must fit, the payload start with the record's first tag.
+    const std::uint32_t length = get_u32(header);
+    if (length == 0 || length > kMaxResyncRecordBytes || length > size_ - at - kFrameHeaderSize) continue;
+    if (header[kFrameHeaderSize] != first_byte) continue;
+    const std::uint32_t crc = get_u32(header + 4);
+    const char* bytes = window(at + kFrameHeaderSize, length);
+    if (bytes == nullptr || io::crc32(bytes, length) != crc) continue;
+    payload.assign(bytes, length);
+    if (!valid(payload)) continue;
+    offset_ = at;
+    return true;
+  }
+  offset_ = size_;
+  return false;
 }
 
 FileWriter::FileWriter(const std::filesystem::path& file, int open_flags) : file_(file) {

@@ -7,6 +7,11 @@
 
 namespace fuse::service {
 
+namespace {
+/// Smallest update.max_unacked_bytes: several observations of the largest size (3 MiB).
+constexpr std::size_t kMinUnackedBytes = std::size_t{16} << 20;
+}  // namespace
+
 void IngestConfig::load(ConfigNode& node) {
   node.get("mode", mode).get("rate", rate).get("lockstep_timeout_s", lockstep_timeout_s).get("start_wait_s", start_wait_s)
       .get("prefetch_events", prefetch_events).get("flush_timeout_s", flush_timeout_s)
@@ -43,6 +48,7 @@ void StateServiceConfig::load(ConfigNode& node) {
 void UpdateServiceConfig::load(ConfigNode& node) {
   node.get("history_deadline_s", history_deadline_s).get("map_sync_timeout_s", map_sync_timeout_s);
   node.get("resend_after_s", resend_after_s).get("max_unacked", max_unacked);
+  node.get("max_unacked_bytes", max_unacked_bytes);
   node.get("max_backlog_s", max_backlog_s).get("compact_after", compact_after);
   node.check(std::isfinite(max_backlog_s) && max_backlog_s >= 1.0 && max_backlog_s <= 600.0, "max_backlog_s",
              "must be in [1, 600] s");
@@ -51,6 +57,8 @@ void UpdateServiceConfig::load(ConfigNode& node) {
   node.check(map_sync_timeout_s >= 0.0 && map_sync_timeout_s <= 60.0, "map_sync_timeout_s", "must be in [0, 60] s");
   node.check(resend_after_s > 0.0 && resend_after_s <= 60.0, "resend_after_s", "must be in (0, 60] s");
   node.check(max_unacked >= 10, "max_unacked", "must be at least 10");
+  node.check(max_unacked_bytes >= kMinUnackedBytes, "max_unacked_bytes",
+             "must be at least " + std::to_string(kMinUnackedBytes) + " bytes (a few of the largest observations)");
   node.finish();
 }
 

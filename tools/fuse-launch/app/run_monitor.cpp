@@ -26,7 +26,7 @@ const std::map<std::string, std::vector<std::string>>& summary_counters() {
        {"scans_processed", "scan_before_init", "scans_already_corrected", "scans_dropped_backlog",
         "history_wait_timeout", "history_refused", "recovery_scans", "diverged", "observations_resent",
         "observations_given_up"}},
-      {"fuse-map", {"observations_applied", "journal_errors", "observations_pending_dropped"}},
+      {"fuse-map", {"map_observations_applied", "journal_errors", "pending_dropped", "pending_observations"}},
   };
   return c;
 }
@@ -59,6 +59,9 @@ RunMonitor::RunMonitor(const service::SystemConfig& config, std::string trajecto
       *participant_, transport::topics::kMapStatus, [this](const fuse_msgs::MapStatus& s) {
         std::lock_guard<std::mutex> lock(mutex_);
         if (s.session() != 0) acked_[s.session()] = std::max(acked_[s.session()], s.acked_sequence());
+        for (const fuse_msgs::SessionAck& a : s.sessions()) {
+          if (a.session() != 0) acked_[a.session()] = std::max(acked_[a.session()], a.acked_sequence());
+        }
       });
 }
 

@@ -4,18 +4,34 @@
 // status out, control requests (mode, save, load, stats).
 //
 // Observation rules, per session (one fuse-update instance), with sequences 1, 2, ...:
-//   - a sequence at or below the highest acknowledged one is a duplicate (a re-send): it is
-//     acknowledged again and nothing else happens;
-//   - mapping: the observation is journaled (fsync'd) first, then applied through the policy; it
-//     is acknowledged only once journaled, so an acknowledged observation survives any crash;
+//   - acknowledged means durable: a session's acknowledged sequence S is the highest such that
+//     every sequence of the session up to S is journaled (fsync'd) or in the snapshot, or was
+//     given up by its sender (session_acks.hpp). An observation journaled above a hole is
+//     remembered and acknowledged once the hole is filled; each observation tells the lowest
+//     sequence its sender still holds, which acknowledges what the sender gave up;
+//   - an observation already acknowledged, journaled or pending is a duplicate (a re-send): it
+//     is acknowledged again (as far as the rule allows) and nothing else happens;
+//   - mapping: the observation is journaled first, then applied through the policy;
 //   - localization: the map is frozen; the observation is acknowledged but neither journaled nor
-//     applied (it would not change the map). Such acknowledgements live in memory only: after a
-//     restart the acknowledged sequence of a session is the highest one applied to the map.
+//     applied (it would not change the map): settled like one its sender gave up. That lives in
+//     memory until the next snapshot; after a restart without one, the sender's lowest_unacked
+//     settles those sequences again.
+// Degraded (the journal or a snapshot cannot be written: full disk, read-only file system, an
+// unwritable directory at start-up): observations that cannot be journaled are kept in memory in
+// arrival order (pending, bounded by max_pending_bytes: beyond it the oldest is dropped and
+// counted; it stays unacknowledged, so its sender still holds it), and nothing new is
+// acknowledged. retry() (every retry_interval_s) makes the directory writable again if it can,
+// journals and applies the pending in order, then writes a due snapshot (one that keeps failing
+// is tried at growing intervals, at most every kMaxSnapshotBackoff retries: it rewrites the whole
+// map each time); the core is running again once nothing is pending and the journal and
+// snapshots work. Repeated failures are logged
+// rate-limited, with counts (fuse::Counters).
 // Restart: snapshot + journal replay rebuild the same map, point for point, and the same
-// acknowledged sequences. The start-up mode is the configured one (`policy.mode`); the mode in
-// a snapshot records the mode when it was written.
-// Replacing the map (load) keeps every session's acknowledged sequence (acknowledgements never go
-// back), increases the epoch, and is made durable at once by a snapshot into the map directory.
+// acknowledged sequences. A damaged load keeps every good record and, with write access, is
+// settled by a snapshot at once. The start-up mode is the configured one (`policy.mode`); the
+// mode in a snapshot records the mode when it was written.
+// Replacing the map (load) keeps every session's acknowledgements (they never go back),
+// increases the epoch, and is made durable at once by a snapshot into the map directory.
 //
 // Not thread-safe: the service serialises calls.
 #pragma once
@@ -23,14 +39,18 @@
 #include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
+#include <deque>
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "fuse/association/spatial_index.hpp"
 #include "fuse/core/config.hpp"
+#include "fuse/core/counters.hpp"
 #include "fuse/map/map_policy.hpp"
 #include "fuse/map/map_storage.hpp"
 #include "fuse/map/point_map.hpp"
@@ -40,11 +60,20 @@ namespace fuse {
 struct MapServerConfig {
   /// iVox capacity of the server's index: the persistent map must never be evicted.
   static constexpr std::size_t kNoEviction = 2147483647;  // iVox voxel indices are 32-bit
+  /// Default bound of the observations kept in memory while the journal cannot be written:
+  /// about 100 s of 20 000-point scans at 10 Hz.
+  static constexpr std::size_t kDefaultMaxPendingBytes = std::size_t{256} << 20;
+  /// Smallest bound accepted: several of the largest observations (262 144 points, 3 MiB).
+  static constexpr std::size_t kMinPendingBytes = std::size_t{16} << 20;
 
   std::string directory = "map";     ///< map.snapshot and map.journal live here (created if missing)
   double chunk_size = 20.0;          ///< m, of a new map (a snapshot keeps its own)
   std::size_t snapshot_every = 500;  ///< journaled observations between automatic snapshots; 0: only on save
   bool fsync = true;                 ///< false only for benches: acknowledged data may then be lost
+  /// Observations that could not be journaled are kept in memory up to this many bytes of points
+  /// (the oldest dropped beyond it: unacknowledged, so its sender still holds it).
+  std::size_t max_pending_bytes = kDefaultMaxPendingBytes;
+  double retry_interval_s = 2.0;     ///< while degraded: s between attempts to write again
   MapPolicyConfig policy;            ///< policy.mode is the mode at start-up
   /// The policy's nearest-neighbour index over the map's points. A restart rebuilds the same map
   /// when the index holds every point: it never evicts (max_voxels), and max_points_per_voxel
@@ -56,12 +85,20 @@ struct MapServerConfig {
 };
 
 struct MapApplyResult {
-  bool duplicate = false;  ///< already acknowledged: nothing done
+  bool duplicate = false;  ///< already acknowledged, journaled or pending: nothing done
   bool applied = false;    ///< journaled and offered to the policy (mapping mode)
+  bool pending = false;    ///< not journaled (degraded): kept in memory, not acknowledged
   std::size_t inserted = 0;
   std::size_t rejected = 0;  ///< points not finite or outside the chunk key range, dropped
   std::vector<std::uint64_t> changed_chunks;  ///< ascending keys
-  std::uint64_t acked = 0;   ///< the session's highest acknowledged sequence after this call
+  std::uint64_t acked = 0;   ///< the session's acknowledged sequence after this call
+};
+
+struct MapRetryResult {
+  std::size_t journaled = 0;  ///< pending observations journaled and applied by this call
+  std::size_t inserted = 0;
+  std::vector<std::uint64_t> changed_chunks;  ///< ascending keys
+  bool more = false;          ///< pending observations are left and writing works: call again now
 };
 
 struct MapServerStats {
@@ -75,48 +112,98 @@ struct MapServerStats {
   std::uint64_t duplicates = 0;             ///< since start
   std::size_t journal_records = 0;          ///< since the last snapshot
   std::uint64_t snapshots = 0;              ///< written into the map directory since start
-  std::string last_error;                   ///< of an automatic snapshot, empty when none failed
+  bool degraded = false;                    ///< see MapServerCore::degraded()
+  std::string degraded_reason;              ///< why, empty when running
+  std::size_t pending = 0;                  ///< observations kept in memory, not journaled
+  std::size_t pending_bytes = 0;
+  /// Since start, by reason: journal_errors, snapshot_errors, observations_deferred (kept in
+  /// memory), pending_dropped (beyond max_pending_bytes), write_retries_failed.
+  std::map<std::string, std::uint64_t> counters;
 };
 
 class MapServerCore {
  public:
   /// Loads the map directory (snapshot, then journal replay; problems are logged and kept in
   /// load_report()). Read-only (export tools): nothing on disk changes; apply, load and save into
-  /// the directory are refused. Throws MapStorageError on I/O failure, ConfigError on bad config.
+  /// the directory are refused. Read-write on a directory that cannot be written: loads what is
+  /// there and starts degraded (retry() tries again). Throws MapDirectoryLocked when another
+  /// process holds the directory, MapStorageError when a file cannot be read, ConfigError on a
+  /// bad config.
   explicit MapServerCore(const MapServerConfig& config,
                          MapStorage::Access access = MapStorage::Access::kReadWrite);
 
-  /// One accepted observation (world-frame points of one scan). Throws MapStorageError when it
-  /// cannot be journaled: it is then neither applied nor acknowledged.
+  /// One accepted observation (world-frame points of one scan). lowest_unacked: the sender holds
+  /// nothing of the session unacknowledged below it (0: not said; at most sequence). Never
+  /// throws on a write failure: the observation is then kept pending (result.pending).
+  /// std::invalid_argument for session or sequence 0 or lowest_unacked above sequence.
   MapApplyResult apply(std::uint64_t session, std::uint64_t sequence, double t,
-                       const std::vector<Eigen::Vector3f>& points);
+                       const std::vector<Eigen::Vector3f>& points, std::uint64_t lowest_unacked = 0);
 
-  /// Highest acknowledged sequence of a session (0 when none).
+  /// While degraded: see the file comment. Call every config().retry_interval_s, and at once
+  /// again while the result says more.
+  MapRetryResult retry();
+  /// The journal or a snapshot cannot be written, or observations are pending.
+  bool degraded() const;
+  /// Why degraded (empty when not).
+  std::string degraded_reason() const;
+
+  /// Acknowledged sequence of a session (0 when none). An observation that continues it is
+  /// acknowledged when journaled; one above a hole once the hole is filled or given up.
   std::uint64_t acked(std::uint64_t session) const;
-  const std::map<std::uint64_t, std::uint64_t>& acked_sequences() const { return acked_; }
+  /// Every session's acknowledged sequence.
+  std::map<std::uint64_t, std::uint64_t> acked_sequences() const;
+  /// (session, acknowledged sequence) of at most n sessions, most recently active first (after a
+  /// restart: in the order the snapshot and journal had them).
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> recent_sessions(std::size_t n) const;
+  /// The most recently active session (0 when none).
+  std::uint64_t newest_session() const;
+  /// What is durable per session (acknowledged, and above holes).
+  const SessionAcks& session_acks() const { return meta_.acks; }
 
   /// "mapping" or "localization" (std::invalid_argument otherwise).
   void set_mode(const std::string& mode);
   const std::string& mode() const { return meta_.mode; }
 
-  /// Empty file: a snapshot into the map directory (the journal restarts empty). Otherwise a
-  /// snapshot file written atomically at `file` (the directory is untouched). Returns the path.
+  /// Empty file: a snapshot into the map directory (the journal restarts empty; refused with
+  /// MapStorageError while observations are pending). Otherwise a snapshot file written
+  /// atomically at `file` (the directory is untouched). Returns the path.
   std::filesystem::path save(const std::filesystem::path& file = {});
 
   /// Replaces the map by a snapshot file's. On a missing or unreadable file (report.snapshot_ok
-  /// false) nothing changes. Chunks the file has lost are reported and skipped.
+  /// false) nothing changes. Chunks the file has lost are reported and skipped. Refused with
+  /// MapStorageError while degraded.
   LoadReport load(const std::filesystem::path& file);
 
   MapServerStats stats() const;
   std::uint64_t epoch() const { return meta_.epoch; }
   const PointMap& map() const { return map_; }
   const SpatialIndex& index() const { return *index_; }
+  /// The map directory's load at start-up.
   const LoadReport& load_report() const { return load_report_; }
   const MapServerConfig& config() const { return config_; }
 
  private:
+  /// Most observations one retry() journals with one fsync, and most bytes of their points.
+  static constexpr std::size_t kRetryBatchRecords = 64;
+  static constexpr std::size_t kRetryBatchBytes = std::size_t{16} << 20;
+  /// Most retry() calls between two attempts of a snapshot that keeps failing.
+  static constexpr std::size_t kMaxSnapshotBackoff = 32;
+
+  struct Pending {
+    MapObservation observation;
+    std::size_t bytes = 0;
+  };
+
   void rebuild_index();
   std::vector<std::uint64_t> apply_points(const std::vector<Eigen::Vector3f>& points, std::size_t& inserted);
+  /// Applies a journaled observation to the map and acknowledges it as far as the rule allows.
+  std::vector<std::uint64_t> apply_durable(const MapObservation& observation, std::size_t& inserted);
+  bool duplicate(std::uint64_t session, std::uint64_t sequence) const;
+  void keep_pending(MapObservation observation);
+  void journal_failed(const MapObservation& observation);
+  bool snapshot_due() const;
+  /// Writes a snapshot into the directory; false (counted, kept for degraded_reason) on failure.
+  bool try_snapshot(const char* why);
 
   MapServerConfig config_;
   MapStorage::Access access_;
@@ -125,11 +212,17 @@ class MapServerCore {
   MapMeta meta_;
   std::unique_ptr<SpatialIndex> index_;
   std::unique_ptr<MapPolicy> mapping_;  ///< journal replay always maps, whatever the mode
-  std::map<std::uint64_t, std::uint64_t> acked_;
+  std::deque<Pending> pending_;
+  std::set<std::pair<std::uint64_t, std::uint64_t>> pending_ids_;  ///< (session, sequence) of pending_
+  std::size_t pending_bytes_ = 0;
+  bool snapshot_wanted_ = false;  ///< the load was damaged (or a save failed): a snapshot settles it
+  std::string snapshot_error_;    ///< the last snapshot's failure, empty once one succeeded
+  std::size_t snapshot_backoff_ = 0;     ///< retries between attempts after the last failure
+  std::size_t retries_to_snapshot_ = 0;  ///< retries left before the next attempt
   LoadReport load_report_;
   std::vector<Eigen::Vector3f> inserted_;
   std::uint64_t received_ = 0, duplicates_ = 0, snapshots_ = 0;
-  std::string last_error_;
+  Counters counters_;
 };
 
 }  // namespace fuse

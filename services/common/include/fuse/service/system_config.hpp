@@ -64,7 +64,10 @@ struct UpdateServiceConfig {
   double history_deadline_s = 3.0;  ///< give up on a scan when fuse-state cannot cover it by then
   double map_sync_timeout_s = 3.0;  ///< at start-up: wait this long for the map server's chunks
   double resend_after_s = 1.0;      ///< re-send unacknowledged observations older than this
-  std::size_t max_unacked = 2000;   ///< observations kept for re-sending (oldest dropped, counted)
+  std::size_t max_unacked = 2000;   ///< observations kept for re-sending (oldest given up, counted)
+  /// Bytes of points kept for re-sending (oldest given up beyond it, counted): a map server that
+  /// cannot write its disk for long must not exhaust fuse-update's memory.
+  std::size_t max_unacked_bytes = std::size_t{256} << 20;
   /// Scans held (span of scan time) while fuse-state cannot answer (restarting, absent); beyond
   /// it the oldest is dropped and counted. Processed in order once it answers again.
   double max_backlog_s = 40.0;
