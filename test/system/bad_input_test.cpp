@@ -82,7 +82,7 @@ TEST_F(BadInputTest, ImuTimeGoingBackwardsIsDroppedAndCounted) {
   write_lines("imu.csv", lines);
   const RunSummary s = run();
   EXPECT_TRUE(s.error.empty()) << s.error;
-  EXPECT_EQ(count_of(s.input_rejected, "imu_time_not_increasing"), 1u);
+  EXPECT_EQ(count_of(s.input_rejected, "imu_out_of_order"), 1u);
 }
 
 TEST_F(BadInputTest, HalfSecondImuGapIsFlaggedAndSurvived) {
@@ -118,7 +118,7 @@ TEST_F(BadInputTest, ScanTimeGoingBackwardsIsDroppedAndCounted) {
   write_lines("scans.csv", lines);
   const RunSummary s = run();
   EXPECT_TRUE(s.error.empty()) << s.error;
-  EXPECT_EQ(count_of(s.input_rejected, "scan_time_backwards"), 1u);
+  EXPECT_EQ(count_of(s.input_rejected, "scan_out_of_order"), 1u);
 }
 
 TEST_F(BadInputTest, TruncatedScanFileStopsCleanlyNamingTheFile) {
