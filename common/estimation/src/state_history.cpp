@@ -95,6 +95,12 @@ void StateHistory::correct(double t, const NavState& x, const StateCovariance& P
   last_correction_t_ = std::max(last_correction_t_, t);
 }
 
+void StateHistory::inflate(double t, const StateCovariance& Q) {
+  const std::size_t i = find_at_or_before(t);
+  entries_[i].P += Q;
+  repropagate_from(i);
+}
+
 void StateHistory::repropagate_from(std::size_t i) {
   for (std::size_t k = i + 1; k < entries_.size(); ++k) {
     const Entry& prev = entries_[k - 1];
@@ -139,7 +145,7 @@ double StateHistory::measured_since(double t0, double t1, double max_step) const
   for (std::size_t i = t0 < entries_.front().t ? 0 : find_at_or_before(t0); i + 1 < entries_.size(); ++i) {
     const double a = entries_[i].t, b = entries_[i + 1].t;
     if (b > t1 + kSameTime) break;
-    if (b > t0 && b - a > max_step) since = b;
+    if (b > t0 && b < t1 - kSameTime && b - a > max_step) since = b;
   }
   return since;
 }
