@@ -25,7 +25,7 @@ double unix_now() {
 IngestService::IngestService(const SystemConfig& config, transport::Participant& participant, IngestOptions options)
     : config_(config),
       options_(std::move(options)),
-      source_(std::make_unique<io::PrefetchSource>(open_ingest_input(options_.input),
+      source_(std::make_unique<io::PrefetchSource>(open_ingest_input(options_.input, config.estimator.clock),
                                                 static_cast<std::size_t>(config.ingest.prefetch_events))),
       counters_(logger(kName)),
       imu_(participant, transport::topics::kImu),
