@@ -11,7 +11,6 @@
 // A handled fault stays within 2x of the clean run's ATE (about 2 cm); an unhandled one is off by
 // metres: the negative controls switch the handling off by config and must fail that bound.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -26,6 +25,7 @@
 
 #include "fuse/eval/evaluate.hpp"
 #include "fuse/eval/trajectory.hpp"
+#include "run_command.hpp"
 #include "runner.hpp"
 
 namespace fuse {
@@ -319,13 +319,7 @@ TEST_F(TimeFault, AClockStepWithoutTimeChecksEndsLost) {
 // --- fuse-run exit codes -----------------------------------------------------------------------
 
 int run_cli(const std::string& args, std::string& output) {
-  const std::string cmd = std::string(FUSE_RUN_BIN) + " " + args + " --log-level off 2>&1";
-  FILE* pipe = ::popen(cmd.c_str(), "r");
-  if (pipe == nullptr) return -1;
-  char buf[4096];
-  while (std::fgets(buf, sizeof(buf), pipe) != nullptr) output += buf;
-  const int status = ::pclose(pipe);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return run_command(std::string(FUSE_RUN_BIN) + " " + args + " --log-level off", output);
 }
 
 class FuseRunExitCode : public TimeFault {
