@@ -78,7 +78,7 @@ IngestInput parse_ingest_input(const ServiceArgs& args) {
   return in;
 }
 
-std::unique_ptr<io::SensorSource> open_ingest_input(const IngestInput& in) {
+std::unique_ptr<io::SensorSource> open_ingest_input(const IngestInput& in, const TimeGateConfig& clock) {
   switch (in.kind) {
     case IngestInput::Kind::kOusterPcap:
       return std::make_unique<io::OusterPcapSource>(io::OusterPcapConfig{in.path, in.ouster_metadata, {}, {}});
@@ -104,7 +104,7 @@ std::unique_ptr<io::SensorSource> open_ingest_input(const IngestInput& in) {
     case IngestInput::Kind::kRecording:
       break;
   }
-  return io::open_sensor_source(in.path);
+  return io::open_sensor_source(in.path, clock);
 }
 
 }  // namespace fuse::service

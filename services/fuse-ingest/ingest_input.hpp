@@ -38,8 +38,8 @@ inline const char* const kInputOptions[] = {"input", "ouster-metadata", "ouster-
 /// Reads the input options; throws std::invalid_argument naming what is wrong or missing.
 IngestInput parse_ingest_input(const ServiceArgs& args);
 
-/// Opens the input (live sources poll stop_requested() so SIGTERM ends them). Throws
-/// io::InputError when it cannot be opened.
-std::unique_ptr<io::SensorSource> open_ingest_input(const IngestInput& input);
+/// Opens the input (live sources poll stop_requested() so SIGTERM ends them); a recording's streams
+/// are time-checked with `clock` (estimator.clock). Throws io::InputError when it cannot be opened.
+std::unique_ptr<io::SensorSource> open_ingest_input(const IngestInput& input, const TimeGateConfig& clock = {});
 
 }  // namespace fuse::service

@@ -59,7 +59,7 @@ bool IngestService::resuming() const {
 }
 
 std::unique_ptr<io::SensorSource> IngestService::open_source() {
-  std::unique_ptr<io::SensorSource> source = open_ingest_input(options_.input);
+  std::unique_ptr<io::SensorSource> source = open_ingest_input(options_.input, config_.estimator.clock);
   if (!resuming()) return source;
   // Joining a schedule that has run for a while: read the first event (the schedule's origin),
   // then jump to where the schedule is now. Reading and dropping everything before took seconds

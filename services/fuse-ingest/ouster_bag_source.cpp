@@ -90,12 +90,19 @@ bool OusterBagSource::next(io::SensorEvent& out) {
   const auto& topics = bag_->topics();
   const std::size_t lidar_size = meta_.lidar_packet_size();
   for (;;) {
-    while (!ready_.empty()) {
-      out = std::move(ready_.front());
+    if (!passed_.empty()) {
+      out = std::move(passed_.front());
+      passed_.pop_front();
+      return true;
+    }
+    if (!ready_.empty()) {
+      io::SensorEvent event = std::move(ready_.front());
       ready_.pop_front();
-      if (out.kind == io::SensorEvent::Kind::kImu ? validator_.accept(out.imu) : validator_.accept(out.scan)) return true;
+      validator_.check(std::move(event), passed_);
+      continue;
     }
     if (finished_) {
+      validator_.finish();
       if (!error_.empty()) throw io::InputError(error_);
       return false;
     }

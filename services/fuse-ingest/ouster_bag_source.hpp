@@ -47,7 +47,8 @@ class OusterBagSource : public io::SensorSource {
   io::ouster::Metadata meta_;
   io::SourceValidator validator_;
   std::unique_ptr<io::ouster::Stream> stream_;
-  std::deque<io::SensorEvent> ready_;
+  std::deque<io::SensorEvent> ready_;   ///< assembled, not yet checked
+  std::deque<io::SensorEvent> passed_;  ///< checked (SourceValidator)
   bool finished_ = false;
   std::string error_;
 };

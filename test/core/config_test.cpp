@@ -3,7 +3,10 @@
 #include "fuse/core/config.hpp"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
+#include <filesystem>
+#include <fstream>
 #include <string>
 
 namespace {
@@ -99,6 +102,30 @@ TEST(ConfigNode, NonMapAndInvalidYamlAreRefused) {
   ConfigNode root = ConfigNode::from_string("section: 5\n");
   const std::string msg = config_error_of([&] { root.child("section"); });
   EXPECT_NE(msg.find("section"), std::string::npos) << msg;
+}
+
+/// A config file with `text` in the test's temporary directory; removed by the destructor.
+struct TempConfig {
+  explicit TempConfig(const std::string& text)
+      : path(std::filesystem::temp_directory_path() / ("fuse_config_test_" + std::to_string(::getpid()) + ".yaml")) {
+    std::ofstream(path) << text;
+  }
+  ~TempConfig() { std::filesystem::remove(path); }
+  std::filesystem::path path;
+};
+
+// An empty config file would run on every default without a word: refused naming the file, by
+// the loader that fuse-run and the services share (and ConfigNode::from_file).
+TEST(ConfigFile, EmptyOrNonMapFileIsRefusedNamingTheFile) {
+  for (const std::string text : {"", "# only a comment\n", "- estimator\n- update\n", "just text\n"}) {
+    TempConfig file(text);
+    const std::string msg = config_error_of([&] { fuse::load_yaml_file(file.path.string(), {"estimator.a=1"}); });
+    EXPECT_NE(msg.find(file.path.string()), std::string::npos) << "'" << text << "': " << msg;
+    EXPECT_NE(config_error_of([&] { ConfigNode::from_file(file.path.string()); }).find(file.path.string()),
+              std::string::npos);
+  }
+  TempConfig good("estimator:\n  gravity_magnitude: 9.8\n");
+  EXPECT_TRUE(fuse::load_yaml_file(good.path.string()).IsMap());
 }
 
 }  // namespace

@@ -46,7 +46,7 @@ TEST(EstimatorIngest, NonFiniteImuIsCounted) {
   est.ingest(bad_time);
   EXPECT_EQ(counter(est, "imu_not_finite"), 2u);
   est.ingest(still_imu(t));  // the next good sample at the same time is accepted
-  EXPECT_EQ(counter(est, "imu_time_not_increasing"), 0u);
+  EXPECT_EQ(counter(est, "imu_duplicate") + counter(est, "imu_out_of_order"), 0u);
   EXPECT_TRUE(est.query(t).ok());
   EXPECT_TRUE(est.query(t).x.all_finite());
 }
@@ -57,7 +57,8 @@ TEST(EstimatorIngest, TimeGoingBackwardsIsRefused) {
   const double newest = (kInitSamples - 1) * kImuDt;  // the last sample fed
   est.ingest(still_imu(newest - 0.1));
   est.ingest(still_imu(newest));  // equal time: not after the previous one
-  EXPECT_EQ(counter(est, "imu_time_not_increasing"), 2u);
+  EXPECT_EQ(counter(est, "imu_out_of_order"), 1u);
+  EXPECT_EQ(counter(est, "imu_duplicate"), 1u);
   EXPECT_EQ(est.query(newest + 0.01).status, QueryStatus::kInFuture);  // nothing was propagated past it
 }
 
@@ -70,6 +71,86 @@ TEST(EstimatorIngest, DataGapIsFlaggedAndBridged) {
   EXPECT_EQ(counter(est, "imu_gap"), 1u);
   EXPECT_TRUE(est.query(after_gap).ok());  // the sample is still used
   EXPECT_LT(est.query(after_gap).x.v.norm(), 1e-6);
+}
+
+// Time faults in the IMU stream (StateTracker's TimeGate, estimator.clock): an isolated stamp
+// 10 s ahead or behind is dropped and counted, and the stream goes on; a step that the following
+// samples confirm is a clock step, after which the state continues at the new time, uncertain.
+TEST(StateTrackerTime, IsolatedJumpsAreDroppedAndTheStreamGoesOn) {
+  for (const double jump : {10.0, -10.0}) {
+    StateTracker tracker{EstimatorConfig{}};
+    for (int k = 0; k < kInitSamples; ++k) tracker.ingest(still_imu(k * kImuDt));
+    ASSERT_TRUE(tracker.initialised());
+    double t = kInitSamples * kImuDt;
+    tracker.ingest(still_imu(t + jump));
+    for (int k = 1; k <= 100; ++k) tracker.ingest(still_imu(t + k * kImuDt));
+    EXPECT_EQ(tracker.counters().get("imu_time_outlier"), 1u) << "jump " << jump;
+    EXPECT_EQ(tracker.counters().get("imu_out_of_order") + tracker.counters().get("imu_clock_step"), 0u);
+    EXPECT_NEAR(tracker.history().newest().t, t + 100 * kImuDt, 1e-9) << "jump " << jump;
+    EXPECT_TRUE(tracker.take_events().empty());
+  }
+}
+
+TEST(StateTrackerTime, ConfirmedClockStepContinuesAtTheNewTimeUncertain) {
+  EstimatorConfig config;
+  StateTracker tracker{config};
+  for (int k = 0; k < kInitSamples; ++k) tracker.ingest(still_imu(k * kImuDt));
+  const double before = tracker.history().newest().t;
+  const NavState x_before = tracker.history().newest().x;
+  const double step_to = before + 100.0;
+  for (int k = 0; k < 50; ++k) tracker.ingest(still_imu(step_to + k * kImuDt));
+  EXPECT_EQ(tracker.counters().get("imu_clock_step"), 1u);
+  EXPECT_EQ(tracker.counters().get("imu_time_outlier"), 0u);
+  EXPECT_NEAR(tracker.history().newest().t, step_to + 49 * kImuDt, 1e-9);
+  EXPECT_LT((tracker.history().newest().x.p - x_before.p).norm(), 0.01);  // continues from the last state
+  // With the uncertainty of a gap of unknown length (clock.max_gap_s): metres, not millimetres.
+  const double pos_std = std::sqrt(tracker.history().newest().P(Idx::kPos, Idx::kPos));
+  EXPECT_GT(pos_std, 0.5 * 0.5 * config.divergence.gap_accel_std * std::pow(config.clock.max_gap_s, 2));
+  const auto events = tracker.take_events();
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].kind, TrackingEvent::kClockStep);
+}
+
+// A scan stamped in the IMU's new time confirms a backward step at once (the IMU alone would wait
+// for estimator.clock.step_confirm_s of samples).
+TEST(StateTrackerTime, AScanConfirmsAStepBackAtOnce) {
+  StateTracker tracker{EstimatorConfig{}};
+  for (int k = 0; k < kInitSamples; ++k) tracker.ingest(still_imu(k * kImuDt));
+  const double back_to = tracker.history().newest().t - 100.0;
+  for (int k = 0; k < 10; ++k) tracker.ingest(still_imu(back_to + k * kImuDt));
+  EXPECT_EQ(tracker.counters().get("imu_clock_step"), 0u);  // held: 50 ms of a 1 s confirmation
+  EXPECT_FALSE(tracker.confirm_jump(back_to + 200.0));      // a scan in neither clock
+  ASSERT_TRUE(tracker.confirm_jump(back_to + 10 * kImuDt + 0.05));
+  EXPECT_EQ(tracker.counters().get("imu_clock_step"), 1u);
+  EXPECT_EQ(tracker.counters().get("imu_time_outlier"), 0u);
+  EXPECT_NEAR(tracker.history().newest().t, back_to + 9 * kImuDt, 1e-9);  // every held sample used
+}
+
+// coast_to: a scan ends while the IMU is silent; the history is coasted to it as across a data
+// gap (constant velocity, gap covariance); when the IMU returns, propagation continues from there.
+TEST(StateTrackerTime, CoastToBridgesASilentImuAndTheImuResumesFromThere) {
+  EstimatorConfig config;
+  StateTracker tracker{config};
+  for (int k = 0; k < kInitSamples; ++k) tracker.ingest(still_imu(k * kImuDt));
+  const double last_imu = tracker.history().newest().t;
+  const double P_before = tracker.history().newest().P(Idx::kPos, Idx::kPos);
+  EXPECT_FALSE(tracker.coast_to(last_imu - 0.1));  // not after the newest entry
+  ASSERT_TRUE(tracker.coast_to(last_imu + 0.4));
+  ASSERT_TRUE(tracker.coast_to(last_imu + 0.5));   // the next scan, IMU still silent
+  EXPECT_NEAR(tracker.history().newest().t, last_imu + 0.5, 1e-12);
+  EXPECT_EQ(tracker.counters().get("imu_gap"), 1u);  // one gap, however many scans coast it
+  EXPECT_GT(tracker.history().newest().P(Idx::kPos, Idx::kPos), P_before);
+  EXPECT_GT(tracker.history().newest().P(Idx::kRot, Idx::kRot), std::pow(config.divergence.gap_gyro_std * 0.4, 2));
+  EXPECT_LT(tracker.history().newest().x.v.norm(), 1e-6);  // at rest it stays at rest
+  EXPECT_DOUBLE_EQ(tracker.last_imu_time(), last_imu);
+  const auto events = tracker.take_events();
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].kind, TrackingEvent::kDataGap);
+  tracker.ingest(still_imu(last_imu + 0.45));  // inside the coasted span: dropped, counted
+  EXPECT_EQ(tracker.counters().get("imu_older_than_state"), 1u);
+  tracker.ingest(still_imu(last_imu + 0.505));  // resumes after it
+  EXPECT_NEAR(tracker.history().newest().t, last_imu + 0.505, 1e-12);
+  EXPECT_EQ(tracker.counters().get("imu_gap"), 1u);
 }
 
 TEST(AgreedRate, IsTheSmallerRateWhenBothAgreeInSignElseZero) {

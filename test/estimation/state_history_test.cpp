@@ -184,8 +184,8 @@ TEST(StateHistory, EnsureEntryDoesNotMarkTheStateCorrected) {
 namespace fuse {
 namespace {
 
-// measured_since: a step longer than max_step (a coasted data gap) ending inside (t0, t1] marks
-// where measured motion starts; steps of the IMU period do not.
+// measured_since: a step longer than max_step (a coasted data gap) ending inside (t0, t1) marks
+// where measured motion starts; steps of the IMU period do not, nor does one ending at t1.
 TEST(StateHistory, MeasuredSinceIsTheEndOfTheLatestLongStep) {
   StateHistory h = make_history(20);           // kT0 .. kT0 + 20 kDt, IMU-period steps
   h.add_imu(imu_at(kT0 + 20 * kDt + 0.5));      // a 0.5 s step: a gap
@@ -197,6 +197,9 @@ TEST(StateHistory, MeasuredSinceIsTheEndOfTheLatestLongStep) {
   EXPECT_DOUBLE_EQ(h.measured_since(kT0, t1, 0.1), gap_end);
   EXPECT_DOUBLE_EQ(h.measured_since(gap_end + kDt, t1, 0.1), gap_end + kDt);  // gap before t0
   EXPECT_DOUBLE_EQ(h.measured_since(kT0, t1, 1.0), kT0);  // a longer max_step: not a gap
+  // A scan that lies inside the coasted step (it ends where the step ends) keeps its points: the
+  // step is its constant-velocity motion, not a gap before measured motion.
+  EXPECT_DOUBLE_EQ(h.measured_since(gap_end - 0.1, gap_end, 0.1), gap_end - 0.1);
 }
 
 }  // namespace

@@ -497,10 +497,10 @@ TEST(McapSource, CountsRejectedSamples) {
   EXPECT_EQ(points, 98u);
   const auto& r = source->stats().rejected;
   EXPECT_EQ(r.at(reason::kNanImu), 1u);
-  EXPECT_EQ(r.at(reason::kImuTimeNotIncreasing), 1u);
+  EXPECT_EQ(r.at(reason::kImuOutOfOrder), 1u);
   EXPECT_EQ(r.at(reason::kNanPoints), 2u);
   EXPECT_EQ(r.at(reason::kScanEndBeforeStart), 1u);
-  EXPECT_EQ(r.at(reason::kScanTimeBackwards), 1u);
+  EXPECT_EQ(r.at(reason::kScanOutOfOrder), 1u);
   EXPECT_EQ(r.at(reason::kEmptyScan), 1u);
   EXPECT_EQ(r.at(reason::kUnknownChannel), 1u);
   EXPECT_EQ(source->stats().imu_samples, 2u);

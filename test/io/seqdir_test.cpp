@@ -278,7 +278,7 @@ TEST(SeqdirSource, BadSamplesAreCounted) {
   EXPECT_EQ(r.scans.size(), 2u);
   const auto& rej = source->stats().rejected;
   EXPECT_EQ(rej.at(reason::kNanImu), 1u);
-  EXPECT_EQ(rej.at(reason::kImuTimeNotIncreasing), 1u);
+  EXPECT_EQ(rej.at(reason::kImuOutOfOrder), 1u);
   EXPECT_EQ(rej.at(reason::kScanEndBeforeStart), 1u);
   EXPECT_EQ(rej.at(reason::kNanPoints), 1u);
   EXPECT_EQ(rej.at(reason::kEmptyScan), 1u);  // the scan whose only point was NaN

@@ -3,7 +3,6 @@
 // and a count; the run finishes or stops cleanly, never crashes.
 #include <gtest/gtest.h>
 
-#include <sys/wait.h>
 
 #include <cmath>
 #include <cstdio>
@@ -14,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "run_command.hpp"
 #include "runner.hpp"
 
 namespace fs = std::filesystem;
@@ -82,7 +82,7 @@ TEST_F(BadInputTest, ImuTimeGoingBackwardsIsDroppedAndCounted) {
   write_lines("imu.csv", lines);
   const RunSummary s = run();
   EXPECT_TRUE(s.error.empty()) << s.error;
-  EXPECT_EQ(count_of(s.input_rejected, "imu_time_not_increasing"), 1u);
+  EXPECT_EQ(count_of(s.input_rejected, "imu_out_of_order"), 1u);
 }
 
 TEST_F(BadInputTest, HalfSecondImuGapIsFlaggedAndSurvived) {
@@ -118,7 +118,7 @@ TEST_F(BadInputTest, ScanTimeGoingBackwardsIsDroppedAndCounted) {
   write_lines("scans.csv", lines);
   const RunSummary s = run();
   EXPECT_TRUE(s.error.empty()) << s.error;
-  EXPECT_EQ(count_of(s.input_rejected, "scan_time_backwards"), 1u);
+  EXPECT_EQ(count_of(s.input_rejected, "scan_out_of_order"), 1u);
 }
 
 TEST_F(BadInputTest, TruncatedScanFileStopsCleanlyNamingTheFile) {
@@ -140,13 +140,7 @@ TEST_F(BadInputTest, TruncatedRecordingStopsCleanly) {
 }
 
 int run_cli(const std::string& args, std::string& output) {
-  const std::string cmd = std::string(FUSE_RUN_BIN) + " " + args + " 2>&1";
-  FILE* pipe = ::popen(cmd.c_str(), "r");
-  if (pipe == nullptr) return -1;
-  char buf[4096];
-  while (std::fgets(buf, sizeof(buf), pipe) != nullptr) output += buf;
-  const int status = ::pclose(pipe);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return run_command(std::string(FUSE_RUN_BIN) + " " + args, output);
 }
 
 /// Runs the fuse-run binary on the test's sequence directory with extra arguments.

@@ -143,7 +143,8 @@ TEST_F(WireInput, BadSamplesAreCountedOnHealthAndNobodyCrashes) {
   raw_imu->write(truncated);
   raw_imu->write(transport::Bytes(7, 0xAB));
   EXPECT_TRUE(wait_counter("fuse-state", "imu_not_finite", 1));
-  EXPECT_TRUE(wait_counter("fuse-state", "imu_time_not_increasing", 2));
+  EXPECT_TRUE(wait_counter("fuse-state", "imu_duplicate", 1));
+  EXPECT_TRUE(wait_counter("fuse-state", "imu_out_of_order", 1));
   EXPECT_TRUE(wait_counter("fuse-state", "malformed_imu", 2));
 
   // Scans: NaN time, ends before it starts, point times outside the scan, no points, garbage.

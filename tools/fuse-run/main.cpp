@@ -5,8 +5,13 @@
 // INPUT is an MCAP recording (file) or a sequence directory (folder). A calib.yaml in a sequence
 // directory (or the calibration record of a recording) overrides the config's extrinsic.
 // Writes DIR/trajectory.tum (IMU pose at scan ends), DIR/trajectory_imu.tum (IMU rate),
-// DIR/timing.csv and DIR/diagnostics.csv, and prints per-scan time mean / P95 / max.
-// Exit codes: 0 finished, 1 input error, 2 bad arguments or config, 3 estimator diverged.
+// DIR/timing.csv and DIR/diagnostics.csv, and prints per-scan time mean / P95 / max, the
+// tracking status at the end and the stretches spent relocalizing or lost.
+// Exit codes: 0 finished, 1 input error or an output directory that cannot be created,
+// 2 bad arguments or config (an empty config file too), 3 the run diverged: the estimator gave up
+// (DivergenceError) or was lost at the end of the run or for longer than
+// estimator.tracking.max_lost_s (the reason is printed).
+#include <iomanip>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -86,17 +91,34 @@ int main(int argc, char** argv) {
   }
   config.load_map = load_map;
   config.save_map = save_map;
+  if (const std::string why = fuse::prepare_output_dir(out_dir); !why.empty()) {
+    std::cerr << "fuse-run: --out: " << why << "\n";
+    return kExitInput;
+  }
   const fuse::RunSummary s = fuse::run_offline(config, input, out_dir);
   std::cout << "scans: " << s.scans << "\nscans_updated: " << s.scans_updated << "\nimu_samples: " << s.imu_samples
             << "\nscan_time_mean_ms: " << s.mean_ms << "\nscan_time_p95_ms: " << s.p95_ms
             << "\nscan_time_max_ms: " << s.max_ms << "\n";
   for (const auto& [reason, n] : s.input_rejected) std::cout << "input_rejected_" << reason << ": " << n << "\n";
   for (const auto& [reason, n] : s.estimator_counts) std::cout << "estimator_" << reason << ": " << n << "\n";
+  if (s.initialised) {
+    std::cout << "tracking: " << fuse::to_string(s.tracking) << (s.tracking_reason.empty() ? "" : " (" + s.tracking_reason + ")")
+              << "\ntracking_relocalizing_s: " << s.relocalizing_s << "\ntracking_lost_s: " << s.lost_s << "\n";
+    for (const auto& e : s.episodes) {
+      std::cout << "tracking_episode: " << fuse::to_string(e.status) << " from t=" << std::fixed << std::setprecision(3)
+                << e.t_begin << " for " << std::setprecision(2) << e.duration << " s: " << e.reason << "\n"
+                << std::defaultfloat;
+    }
+  }
   if (!s.error.empty()) {
     fuse::logger("run")->error("{}", s.error);
     std::cout << "error: " << s.error << "\n";
     return s.diverged ? kExitDiverged : kExitInput;
   }
+  if (s.diverged) {
+    fuse::logger("run")->error("the run diverged: {}", s.divergence);
+    std::cout << "diverged: " << s.divergence << "\n";
+  }
   std::cout << "output: " << out_dir << "\n";
-  return 0;
+  return s.diverged ? kExitDiverged : 0;
 }

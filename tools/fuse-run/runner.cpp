@@ -1,5 +1,7 @@
 #include "runner.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
@@ -33,22 +35,51 @@ void write_timing(const std::string& path, const std::vector<ScanReport>& report
   }
 }
 
-void write_diagnostics(const std::string& path, const std::vector<ScanReport>& reports) {
+void write_diagnostics(const std::string& path, const std::vector<ScanReport>& reports,
+                       const std::vector<TrackingStatus>& status) {
   std::ofstream f(path);
   f << "scan,t,updated,constraints,rejected_no_neighbors,rejected_not_planar,rejected_screening,"
-       "min_eig_translation,min_eig_rotation,min_eig_ratio,min_gamma,iterations,converged,map_points,map_inserted\n";
+       "min_eig_translation,min_eig_rotation,min_eig_ratio,min_gamma,iterations,converged,map_points,map_inserted,"
+       "recovery,fit,match_fit,prior_position_std,prior_rotation_std,tracking\n";
   for (std::size_t i = 0; i < reports.size(); ++i) {
     const auto& r = reports[i];
     f << i << ',' << std::fixed << std::setprecision(6) << r.t << ',' << r.updated << ',' << r.constraints << ','
       << r.rejected_no_neighbors << ',' << r.rejected_not_planar << ',' << r.rejected_screening << ','
       << std::scientific << std::setprecision(4) << r.min_eig_translation << ',' << r.min_eig_rotation << ',' << r.min_eig_ratio << ','
       << std::fixed << r.min_gamma << ',' << r.iterations << ',' << r.converged << ',' << r.map_points << ','
-      << r.map_inserted << '\n';
+      << r.map_inserted << ',' << r.recovery << ',' << r.fit << ',' << r.match_fit << ',' << r.prior_position_std
+      << ',' << r.prior_rotation_std << ',' << to_string(status[i]) << '\n';
   }
 }
 
 StampedPose pose_of(const StateQuery& q) {
   return StampedPose{q.t, q.x.p, Eigen::Quaterniond(q.x.R).normalized()};
+}
+
+/// The tracking status at the end, its episodes, and whether the run diverged by it: lost at the
+/// end, or lost for longer than estimator.tracking.max_lost_s in one episode.
+void summarise_tracking(const Estimator& estimator, const TrackingConfig& config, RunSummary& s) {
+  s.initialised = estimator.initialised();
+  const TrackingMonitor& m = estimator.tracking();
+  s.tracking = m.status();
+  s.tracking_reason = m.reason();
+  s.episodes = m.episodes();
+  s.relocalizing_s = m.time_in(TrackingStatus::kRelocalizing);
+  s.lost_s = m.time_in(TrackingStatus::kLost);
+  if (s.diverged || !s.initialised) return;
+  if (m.status() == TrackingStatus::kLost) {
+    s.diverged = true;
+    s.divergence = "lost at the end of the run: " + m.reason();
+    return;
+  }
+  for (const TrackingMonitor::Episode& e : s.episodes) {
+    if (e.status == TrackingStatus::kLost && e.duration > config.max_lost_s) {
+      s.diverged = true;
+      s.divergence = fmt::format("lost for {:.1f} s from t={:.3f} (longer than estimator.tracking.max_lost_s = {} s): {}",
+                                 e.duration, e.t_begin, config.max_lost_s, e.reason);
+      return;
+    }
+  }
 }
 
 void summarise_timing(RunSummary& s) {
@@ -63,6 +94,15 @@ void summarise_timing(RunSummary& s) {
 }
 }  // namespace
 
+std::string prepare_output_dir(const std::string& out_dir) {
+  std::error_code ec;
+  std::filesystem::create_directories(out_dir, ec);
+  if (ec) return "cannot create output directory '" + out_dir + "': " + ec.message();
+  if (!std::filesystem::is_directory(out_dir, ec)) return "output path '" + out_dir + "' is not a directory";
+  if (::access(out_dir.c_str(), W_OK | X_OK) != 0) return "output directory '" + out_dir + "' is not writable";
+  return "";
+}
+
 RunnerConfig load_runner_config(const std::string& file, const std::vector<std::string>& overrides) {
   ConfigNode node(load_yaml_file(file, overrides), "");
   RunnerConfig config;
@@ -74,9 +114,10 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
   auto log = logger("run");
   RunSummary summary;
   std::vector<ScanReport> reports;
+  std::vector<TrackingStatus> status;  ///< after each report
   std::unique_ptr<io::SensorSource> source;
   try {
-    source = io::open_sensor_source(input);
+    source = io::open_sensor_source(input, config_in.estimator.clock);
   } catch (const std::exception& e) {
     summary.error = std::string("cannot open input: ") + e.what();
     return summary;
@@ -102,8 +143,14 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
     log->info("map {} loaded: {} points; map mode {}", config.load_map, points.size(), config.estimator.map.mode);
   }
   io::SensorEvent ev;
+  std::uint64_t scans_refused = 0;  ///< by the source's checks
+  auto note_refused_scans = [&] {   // they arrived: time without a LiDAR update for the tracking status
+    estimator.note_refused_scans(source->stats().scans_refused - scans_refused);
+    scans_refused = source->stats().scans_refused;
+  };
   try {
     while (source->next(ev)) {
+      note_refused_scans();
       if (ev.kind == io::SensorEvent::Kind::kImu) {
         ++summary.imu_samples;
         estimator.ingest(ev.imu);
@@ -117,12 +164,15 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
       const StateQuery q = estimator.query(ev.scan.t_end);
       if (!q.ok()) continue;
       reports.push_back(report);
+      status.push_back(estimator.tracking().status());
       if (report.updated) ++summary.scans_updated;
       summary.scan_ms.push_back(report.ms_total);
       summary.trajectory.push_back(pose_of(q));
     }
+    note_refused_scans();
   } catch (const DivergenceError& e) {
     summary.diverged = true;
+    summary.divergence = e.what();
     summary.error = std::string("estimator diverged: ") + e.what();
   } catch (const io::InputError& e) {
     summary.error = std::string("input error: ") + e.what();
@@ -141,12 +191,21 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
   summary.input_rejected = source->stats().rejected;
   summary.estimator_counts = estimator.counters();
   summarise_timing(summary);
+  summarise_tracking(estimator, config.estimator.tracking, summary);
   if (!out_dir.empty()) {
-    std::filesystem::create_directories(out_dir);
-    eval::write_tum(out_dir + "/trajectory.tum", summary.trajectory);
-    eval::write_tum(out_dir + "/trajectory_imu.tum", summary.trajectory_imu);
+    const std::string why = prepare_output_dir(out_dir);
+    if (!why.empty()) {
+      if (summary.error.empty()) summary.error = why;
+      return summary;
+    }
+    try {
+      eval::write_tum(out_dir + "/trajectory.tum", summary.trajectory);
+      eval::write_tum(out_dir + "/trajectory_imu.tum", summary.trajectory_imu);
+    } catch (const std::exception& e) {
+      if (summary.error.empty()) summary.error = e.what();
+    }
     write_timing(out_dir + "/timing.csv", reports);
-    write_diagnostics(out_dir + "/diagnostics.csv", reports);
+    write_diagnostics(out_dir + "/diagnostics.csv", reports, status);
   }
   return summary;
 }

@@ -25,19 +25,31 @@ RunnerConfig load_runner_config(const std::string& file, const std::vector<std::
 
 struct RunSummary {
   std::size_t scans = 0, scans_updated = 0, imu_samples = 0;
+  bool initialised = false;
   std::vector<double> scan_ms;  ///< total per-scan estimator time
   double mean_ms = 0.0, p95_ms = 0.0, max_ms = 0.0;
   std::vector<StampedPose> trajectory;      ///< IMU pose at scan end times
   std::vector<StampedPose> trajectory_imu;  ///< IMU pose at IMU rate (causal estimate)
   std::map<std::string, std::uint64_t> input_rejected;    ///< from the sensor source
   std::map<std::string, std::uint64_t> estimator_counts;  ///< from the estimator
+  /// Tracking status at the end of the run, why, and every stretch spent relocalizing or lost.
+  TrackingStatus tracking = TrackingStatus::kTracking;
+  std::string tracking_reason;
+  std::vector<TrackingMonitor::Episode> episodes;
+  double relocalizing_s = 0.0, lost_s = 0.0;
+  /// The run diverged by a measure computable without truth (DivergenceError, lost at the end or
+  /// for longer than estimator.tracking.max_lost_s): fuse-run exits 3.
   bool diverged = false;
-  std::string error;  ///< why the run stopped early
+  std::string divergence;  ///< why it diverged
+  std::string error;       ///< why the run stopped early
 };
 
+/// Makes sure `out_dir` exists and is a writable directory; the reason it is not, else empty.
+std::string prepare_output_dir(const std::string& out_dir);
+
 /// Runs the estimator over `input`; writes DIR/{trajectory.tum, trajectory_imu.tum, timing.csv,
-/// diagnostics.csv} when out_dir is not empty. Input errors and divergence end the run with
-/// summary.error set (never an exception).
+/// diagnostics.csv} when out_dir is not empty. Input errors and a DivergenceError end the run with
+/// summary.error set (never an exception); a lost track sets summary.diverged.
 RunSummary run_offline(const RunnerConfig& config, const std::string& input, const std::string& out_dir);
 
 }  // namespace fuse

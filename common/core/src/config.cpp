@@ -8,15 +8,7 @@ ConfigNode::ConfigNode(YAML::Node node, std::string path) : node_(std::move(node
   }
 }
 
-ConfigNode ConfigNode::from_file(const std::string& file) {
-  try {
-    return ConfigNode(YAML::LoadFile(file), "");
-  } catch (const YAML::BadFile&) {
-    throw ConfigError("cannot open config file '" + file + "'");
-  } catch (const YAML::ParserException& e) {
-    throw ConfigError("config file '" + file + "' is not valid YAML: " + e.what());
-  }
-}
+ConfigNode ConfigNode::from_file(const std::string& file) { return ConfigNode(load_yaml_file(file), ""); }
 
 ConfigNode ConfigNode::from_string(const std::string& text) {
   try {
@@ -117,6 +109,10 @@ YAML::Node load_yaml_file(const std::string& file, const std::vector<std::string
   } catch (const YAML::ParserException& e) {
     throw ConfigError("config file '" + file + "' is not valid YAML: " + e.what());
   }
+  // An empty file (or one holding only comments) would silently run on every default: refused, as
+  // is a file whose top level is not a map of sections.
+  if (!root.IsDefined() || root.IsNull()) throw ConfigError("config file '" + file + "' is empty");
+  if (!root.IsMap()) throw ConfigError("config file '" + file + "' is not a YAML mapping of sections");
   for (const auto& o : overrides) apply_override(root, o);
   return root;
 }

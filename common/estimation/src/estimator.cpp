@@ -7,7 +7,12 @@
 namespace fuse {
 
 Estimator::Estimator(const EstimatorConfig& config)
-    : config_(config), tracker_(config), updater_(config), counters_(logger("estimator")) {}
+    : config_(config),
+      tracker_(config),
+      updater_(config),
+      monitor_(config.tracking),
+      scan_gate_(config.clock),
+      counters_(logger("estimator")) {}
 
 std::map<std::string, std::uint64_t> Estimator::counters() const {
   std::map<std::string, std::uint64_t> all = tracker_.counters().map();
@@ -17,8 +22,11 @@ std::map<std::string, std::uint64_t> Estimator::counters() const {
   return all;
 }
 
-bool accept_scan(const LidarScan& scan, double last_scan_t, const StateHistory& history, double max_imu_gap,
-                 Counters& counters) {
+void Estimator::forward_events() {
+  for (const StateTracker::Event& e : tracker_.take_events()) monitor_.on_event(e.kind, e.t);
+}
+
+bool accept_scan(const LidarScan& scan, TimeGate& gate, const StateHistory& history, Counters& counters) {
   if (!std::isfinite(scan.t_start) || !std::isfinite(scan.t_end) || scan.t_end < scan.t_start) {
     counters.count("scan_bad_time", "scan with invalid start/end time refused");
     return false;
@@ -27,15 +35,35 @@ bool accept_scan(const LidarScan& scan, double last_scan_t, const StateHistory& 
     counters.count("scan_before_init", "scan before static initialisation finished, skipped");
     return false;
   }
-  if (scan.t_end <= last_scan_t) {
-    counters.count("scan_out_of_order", "scan ending at t=" + std::to_string(scan.t_end) + " is not newer than the last one, refused");
-    return false;
+  // The scan stream's own time check; a jump is decided at once by the IMU clock (the history's
+  // newest time): both clocks stepped, or this scan's stamp is wrong.
+  std::vector<TimeGate::Decision> decisions;
+  gate.push(scan.t_end, decisions, history.newest().t);
+  const TimeGate::Decision& d = decisions.front();  // a reference never holds a sample
+  switch (d.verdict) {
+    case TimeGate::Verdict::kAccept:
+      return true;
+    case TimeGate::Verdict::kClockStep:
+      counters.count("scan_clock_step", fmt::format("scan clock step of {:+.3f} s to t={:.6f}, as the IMU clock's: "
+                                                    "the scan is used",
+                                                    d.step, scan.t_end));
+      return true;
+    case TimeGate::Verdict::kDuplicate:
+      counters.count("scan_duplicate", fmt::format("scan ending at t={:.6f} repeats the last one's end: refused", scan.t_end));
+      return false;
+    case TimeGate::Verdict::kOutOfOrder:
+      counters.count("scan_out_of_order", fmt::format("scan ending at t={:.6f} is not newer than the last one ({:.6f} s "
+                                                      "behind), refused",
+                                                      scan.t_end, -d.step));
+      return false;
+    case TimeGate::Verdict::kOutlier:
+      counters.count("scan_time_outlier",
+                     fmt::format("scan ending at t={:.6f} jumps {:+.3f} s away from the scan stream, and the IMU clock "
+                                 "(t={:.6f}) did not (beyond estimator.clock.max_gap_s): refused",
+                                 scan.t_end, d.step, history.newest().t));
+      return false;
   }
-  if (scan.t_end > history.newest().t + max_imu_gap) {
-    counters.count("scan_ahead_of_imu", "scan ends " + std::to_string(scan.t_end - history.newest().t) +
-                                            " s after the newest IMU sample: extrapolating");
-  }
-  return true;
+  return false;
 }
 
 ScanReport Estimator::ingest(const LidarScan& scan) {
@@ -44,13 +72,34 @@ ScanReport Estimator::ingest(const LidarScan& scan) {
   report.sequence = scan.sequence;
   report.points_in = scan.points.size();
   StateHistory& history = tracker_.history();
-  if (!accept_scan(scan, last_scan_t_, history, config_.divergence.max_imu_gap, counters_)) return report;
-  if (!history.ensure_entry(scan.t_end)) {
-    counters_.count("scan_too_old", "scan older than the state history, refused");
+  // A scan whose clock made the jump that the IMU samples held by the tracker's time check made
+  // confirms it at once (both clocks stepped): the scan is then judged against the new time.
+  if (std::isfinite(scan.t_end) && tracker_.confirm_jump(scan.t_end)) forward_events();
+  if (!accept_scan(scan, scan_gate_, history, counters_)) {
+    if (history.initialised()) monitor_.on_refused_scan();
     return report;
   }
-  last_scan_t_ = scan.t_end;
-  return updater_.process(scan, history);
+  if (scan.t_end > tracker_.last_imu_time() + config_.divergence.max_imu_gap && scan.t_end > history.newest().t) {
+    // The IMU is silent at the scan end: coast to it as across a data gap, so that the scan's
+    // prior is uncertain and it is re-localised (an IMU-only dropout while the LiDAR runs).
+    const bool coast = config_.divergence.coast_silent_imu;
+    counters_.count("scan_ahead_of_imu", fmt::format("scan ends {:.3f} s after the newest IMU sample: {}",
+                                                     scan.t_end - tracker_.last_imu_time(),
+                                                     coast ? "coasting the state to its end as across a data gap"
+                                                           : "extrapolating (divergence.coast_silent_imu off)"));
+    if (coast) tracker_.coast_to(scan.t_end);
+    forward_events();
+  }
+  if (!history.ensure_entry(scan.t_end)) {
+    counters_.count("scan_too_old", "scan older than the state history, refused");
+    monitor_.on_refused_scan();
+    return report;
+  }
+  // A lost track keeps trying: the next scan is re-localised from a widened prior.
+  if (monitor_.wants_relocalisation()) tracker_.widen(scan.t_end);
+  report = updater_.process(scan, history);
+  monitor_.on_scan(report);
+  return report;
 }
 
 }  // namespace fuse

@@ -29,7 +29,7 @@ void InitialCovarianceConfig::load(ConfigNode& node) {
 void DivergenceConfig::load(ConfigNode& node) {
   node.get("max_position_std", max_position_std).get("max_scans_without_constraints", max_scans_without_constraints);
   node.get("max_imu_gap", max_imu_gap).get("gap_accel_std", gap_accel_std).get("gap_gyro_std", gap_gyro_std);
-  node.get("gap_rate_window", gap_rate_window).get("gap_level", gap_level);
+  node.get("gap_rate_window", gap_rate_window).get("gap_level", gap_level).get("coast_silent_imu", coast_silent_imu);
   node.check(std::isfinite(gap_rate_window) && gap_rate_window >= 0.0 && gap_rate_window <= 10.0, "gap_rate_window",
              "must be in [0, 10] s");
   node.check(std::isfinite(gap_accel_std) && gap_accel_std >= 0.0, "gap_accel_std", "must be finite and >= 0");
@@ -86,6 +86,8 @@ void EstimatorConfig::load(ConfigNode& node) {
   load_section(node, "initial_covariance", initial_covariance);
   load_section(node, "divergence", divergence);
   load_section(node, "recovery", recovery);
+  load_section(node, "clock", clock);
+  load_section(node, "tracking", tracking);
   node.finish();
 }
 

@@ -44,16 +44,49 @@ LidarUpdater::LidarUpdater(const EstimatorConfig& config)
   recovery_measurement_.reassociate_iterations = config.recovery.reassociate_iterations;
 }
 
+namespace {
+/// Largest σ of a 3×3 block of P: the square root of its largest eigenvalue.
+double largest_std(const StateCovariance& P, int idx) {
+  const Eigen::Matrix3d block = P.block<3, 3>(idx, idx);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(block, Eigen::EigenvaluesOnly);
+  return std::sqrt(std::max(es.eigenvalues()(2), 0.0));
+}
+}  // namespace
+
 bool LidarUpdater::needs_recovery(const StateCovariance& P) const {
   if (!config_.recovery.enabled) return false;
-  // Largest σ of each block: the square root of the largest eigenvalue of its 3×3 covariance.
-  auto largest_std = [&P](int idx) {
-    const Eigen::Matrix3d block = P.block<3, 3>(idx, idx);
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(block, Eigen::EigenvaluesOnly);
-    return std::sqrt(std::max(es.eigenvalues()(2), 0.0));
-  };
-  return largest_std(Idx::kPos) > config_.recovery.position_std ||
-         largest_std(Idx::kRot) > config_.recovery.rotation_std;
+  return largest_std(P, Idx::kPos) > config_.recovery.position_std ||
+         largest_std(P, Idx::kRot) > config_.recovery.rotation_std;
+}
+
+double LidarUpdater::truncated_cost(const NavState& x) const {
+  // Σ_j min(r_j², τ²)/σ² over the scan's N kept points; a point without a constraint costs τ²/σ².
+  const double tau = config_.recovery.inlier_residual, sigma = recovery_measurement_.point_sigma;
+  double cost = 0.0;
+  for (const Constraint& c : constraints_.constraints) {
+    const double r = point_to_plane_residual(x, c);
+    cost += std::min(r * r, tau * tau) / (sigma * sigma);
+  }
+  const double unconstrained = static_cast<double>(points_L_.size() - constraints_.constraints.size());
+  return cost + unconstrained * (tau * tau / (sigma * sigma));
+}
+
+double LidarUpdater::match_fit(const NavState& x) const {
+  const double tau = config_.recovery.inlier_residual;
+  if (constraints_.constraints.empty()) return 0.0;
+  double cost = 0.0;  // Σ min(r², τ²)/τ² over the constrained points
+  for (const Constraint& c : constraints_.constraints) {
+    const double r = point_to_plane_residual(x, c);
+    cost += std::min(r * r, tau * tau) / (tau * tau);
+  }
+  return 1.0 - cost / static_cast<double>(constraints_.constraints.size());
+}
+
+double LidarUpdater::fit_of(double cost) const {
+  // fit = 1 − cost / (N τ²/σ²): 1 when every point lies on its plane, 0 when none has one within τ.
+  const double tau = config_.recovery.inlier_residual, sigma = recovery_measurement_.point_sigma;
+  const double n = static_cast<double>(std::max<std::size_t>(points_L_.size(), 1));
+  return 1.0 - cost / ((tau * tau / (sigma * sigma)) * n);
 }
 
 void LidarUpdater::set_map_mode(const std::string& mode) {
@@ -135,6 +168,8 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
   // 3. Associate + update at the scan end (the first scan only seeds the map).
   t_stage = Clock::now();
   NavState x = prior.x;
+  report.prior_position_std = largest_std(prior.P, Idx::kPos);
+  report.prior_rotation_std = largest_std(prior.P, Idx::kRot);
   report.recovery = map_->size() > 0 && needs_recovery(prior.P);
   if (report.recovery) {
     counters_.count("recovery_scans", fmt::format("uncertain prior at t={:.6f} (σ position {:.3f} m, rotation {:.3f} rad: "
@@ -152,6 +187,8 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
       report.ms_association = model.association_ms();
     }
     x = history.query(scan.t_end).x;
+    if (!report.recovery && result.updated) report.fit = fit_of(truncated_cost(x));  // relocalise sets its own
+    if (result.updated) report.match_fit = match_fit(x);
     report.updated = result.updated;
     report.iterations = result.iterations;
     report.converged = result.converged;
@@ -230,14 +267,8 @@ UpdateResult LidarUpdater::relocalise(StateHistory& history, double t, ScanRepor
   const double margin = config_.recovery.heading_margin * static_cast<double>(points_L_.size()) * outlier_cost;
   const Eigen::Matrix<double, 6, 6> pose_information = prior.P.topLeftCorner<6, 6>().inverse();
   auto log_posterior_cost = [&](const NavState& x, double& fit) {
-    double residual_cost = 0.0;  // Σ min(r², τ²)/σ² over the constrained points
-    for (const Constraint& c : constraints_.constraints) {
-      const double r = point_to_plane_residual(x, c);
-      residual_cost += std::min(r * r, tau * tau) / (sigma * sigma);
-    }
-    const double unconstrained = static_cast<double>(points_L_.size() - constraints_.constraints.size());
-    const double points_cost = residual_cost + unconstrained * outlier_cost;
-    fit = 1.0 - points_cost / (outlier_cost * static_cast<double>(std::max<std::size_t>(points_L_.size(), 1)));
+    const double points_cost = truncated_cost(x);
+    fit = fit_of(points_cost);
     Eigen::Matrix<double, 6, 1> d;
     d << x.p - prior.x.p, so3::Log(prior.x.R.transpose() * x.R);
     return points_cost + d.dot(pose_information * d);

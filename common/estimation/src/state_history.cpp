@@ -117,6 +117,14 @@ void StateHistory::correct(double t, const NavState& x, const StateCovariance& P
   last_correction_t_ = std::max(last_correction_t_, t);
 }
 
+void StateHistory::inflate(double t, const StateCovariance& Q) {
+  const std::size_t i = find_at_or_before(t);
+  refresh_to(i);
+  entries_[i].P += Q;
+  repropagate_from(i);
+  if (stale_entries() <= kEagerRefresh) refresh_to(entries_.size() - 1);
+}
+
 StateQuery StateHistory::query(double t) const {
   StateQuery q;
   q.t = t;
@@ -152,7 +160,7 @@ double StateHistory::measured_since(double t0, double t1, double max_step) const
   for (std::size_t i = t0 < entries_.front().t ? 0 : find_at_or_before(t0); i + 1 < entries_.size(); ++i) {
     const double a = entries_[i].t, b = entries_[i + 1].t;
     if (b > t1 + kSameTime) break;
-    if (b > t0 && b - a > max_step) since = b;
+    if (b > t0 && b < t1 - kSameTime && b - a > max_step) since = b;
   }
   return since;
 }

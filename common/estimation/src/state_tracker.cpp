@@ -6,28 +6,72 @@
 
 namespace fuse {
 
+namespace {
+/// Two times closer than this are the same instant (as in StateHistory).
+constexpr double kSameTime = 1e-6;
+}  // namespace
+
 StateTracker::StateTracker(const EstimatorConfig& config)
-    : config_(config), initializer_(config.init), history_(config.history, config.imu), counters_(logger("estimator")) {}
+    : config_(config),
+      initializer_(config.init),
+      history_(config.history, config.imu),
+      gate_(config.clock),
+      counters_(logger("estimator")) {}
 
 void StateTracker::ingest(const ImuSample& imu) {
   if (!imu.gyro.allFinite() || !imu.accel.allFinite() || !std::isfinite(imu.t)) {
     counters_.count("imu_not_finite", "IMU sample with a non-finite value refused");
     return;
   }
-  if (last_imu_t_ >= 0.0 && imu.t <= last_imu_t_) {
-    counters_.count("imu_time_not_increasing", "IMU sample at t=" + std::to_string(imu.t) + " not after the previous one, refused");
-    return;
+  // The time check may hold a sample (a jump waiting for confirmation) and decide it later.
+  gated_.push_back(imu);
+  gate_.push(imu.t, decisions_);
+  apply_decisions();
+}
+
+bool StateTracker::confirm_jump(double t) {
+  const std::optional<double> held = gate_.newest_held();
+  if (!held || std::abs(t - *held) > config_.clock.max_gap_s) return false;
+  gate_.confirm(decisions_);
+  apply_decisions();
+  return true;
+}
+
+void StateTracker::apply_decisions() {
+  // Decisions come in push order, one per sample pushed: each takes its sample from the front.
+  for (const TimeGate::Decision& d : decisions_) {
+    const ImuSample sample = gated_.front();
+    gated_.pop_front();
+    switch (d.verdict) {
+      case TimeGate::Verdict::kAccept:
+        use(sample);
+        break;
+      case TimeGate::Verdict::kClockStep:
+        step_clock(sample, d.step);
+        break;
+      case TimeGate::Verdict::kDuplicate:
+        counters_.count("imu_duplicate", fmt::format("IMU sample at t={:.6f} repeats the previous stamp: dropped", d.t));
+        break;
+      case TimeGate::Verdict::kOutOfOrder:
+        counters_.count("imu_out_of_order",
+                        fmt::format("IMU sample at t={:.6f} is {:.6f} s behind the stream: dropped", d.t, -d.step));
+        break;
+      case TimeGate::Verdict::kOutlier:
+        counters_.count("imu_time_outlier",
+                        fmt::format("IMU sample at t={:.6f} jumps {:+.3f} s away from the stream and not the samples "
+                                    "after it (beyond estimator.clock.max_gap_s): dropped",
+                                    d.t, d.step));
+        break;
+    }
   }
+}
+
+void StateTracker::use(const ImuSample& imu) {
   const double gap = last_imu_t_ >= 0.0 ? imu.t - last_imu_t_ : 0.0;
-  const bool flagged = gap > config_.divergence.max_imu_gap;
-  if (flagged) {
-    counters_.count("imu_gap", "IMU data gap of " + std::to_string(gap) + " s before t=" + std::to_string(imu.t));
+  if (gap > config_.divergence.max_imu_gap && !coasted_) {
+    flag_gap(imu.t, "IMU data gap of " + std::to_string(gap) + " s before t=" + std::to_string(imu.t));
   }
   last_imu_t_ = imu.t;
-  if (flagged && history_.initialised()) {
-    coast_across_gap(imu);
-    return;
-  }
   if (!history_.initialised()) {
     const std::size_t restarts = initializer_.restarts();
     if (auto x0 = initializer_.add(imu, config_.gravity_magnitude)) initialise(*x0, imu);
@@ -39,7 +83,56 @@ void StateTracker::ingest(const ImuSample& imu) {
     }
     return;
   }
+  const double step = imu.t - history_.newest().t;
+  if (step < -kSameTime) {
+    // The history already reaches past this sample: coasted (coast_to) or extrapolated to a scan
+    // that arrived before it, and corrected there. Propagating from the newest entry with it
+    // would run backwards.
+    counters_.count("imu_older_than_state",
+                    fmt::format("IMU sample at t={:.6f} arrived after the state was {} to a scan ending at t={:.6f}: "
+                                "dropped",
+                                imu.t, coasted_ ? "coasted" : "extrapolated", history_.newest().t));
+    return;
+  }
+  coasted_ = false;
+  if (step > config_.divergence.max_imu_gap) {
+    coast_across_gap(imu);
+    return;
+  }
   history_.add_imu(imu);
+}
+
+void StateTracker::flag_gap(double t, const std::string& message) {
+  counters_.count("imu_gap", message);
+  if (history_.initialised()) events_.push_back({TrackingEvent::kDataGap, t});
+}
+
+void StateTracker::step_clock(const ImuSample& imu, double step) {
+  // The clock stepped (confirmed by the samples after the jump, or by a stream that stayed behind):
+  // continue from the newest state at the new time, with the uncertainty of a gap of unknown
+  // length, so that the LiDAR re-localises it against the map. The map has no time, so nothing
+  // else needs to agree on an offset (docs/architecture.md, "Time is checked like any input").
+  counters_.count("imu_clock_step",
+                  fmt::format("IMU clock step of {:+.3f} s to t={:.6f} (beyond estimator.clock.max_gap_s = {} s, "
+                              "confirmed by the samples after it or by the scans' clock): the state continues at the new time as after a "
+                              "gap of unknown length and is re-localised against the map",
+                              step, imu.t, config_.clock.max_gap_s));
+  last_imu_t_ = imu.t;
+  coasted_ = false;
+  if (!history_.initialised()) {
+    initializer_ = StaticInitializer(config_.init);  // a window across the step is no rest
+    if (auto x0 = initializer_.add(imu, config_.gravity_magnitude)) initialise(*x0, imu);
+    return;
+  }
+  NavState x = history_.newest().x;
+  StateCovariance P = history_.newest().P + gap_noise(config_.clock.max_gap_s);
+  if (config_.divergence.gap_level) {
+    // As after a data gap: the tilt σ of an unknown gap (σ_ω G ≈ 1 rad) would leave the LiDAR to
+    // find roll and pitch too (measured without it: ATE 198 instead of 9 mm after a +100 s step).
+    level_with_accelerometer(imu.accel - x.ba, config_.divergence.gap_accel_std / x.g.norm(), x, P);
+  }
+  history_.reset(imu.t, x, P, imu);
+  events_.push_back({TrackingEvent::kClockStep, imu.t});
 }
 
 void StateTracker::initialise(const NavState& x0_in, const ImuSample& imu) {
@@ -65,25 +158,30 @@ void StateTracker::initialise(const NavState& x0_in, const ImuSample& imu) {
                             x0.bg.x(), x0.bg.y(), x0.bg.z(), initializer_.restarts());
 }
 
-void StateTracker::coast_across_gap(const ImuSample& imu) {
-  // Nothing measured the motion during the gap: coast at constant velocity (the specific force
-  // that cancels gravity, f = R⊤(−g) + b_a) and, per axis, at the rotation rate that the motion
-  // before the gap (its mean rate over divergence.gap_rate_window) and the sample after it agree
-  // on; then take the new sample as usual, and grow the covariance by the unmodelled motion.
-  constexpr double kLastStep = 0.001;  // s: the real sample closes the gap over the last millisecond
+void StateTracker::coast(const Eigen::Vector3d& rate_after, double t) {
+  // Nothing measured the motion: coast at constant velocity (the specific force that cancels
+  // gravity, f = R⊤(−g) + b_a) and, per axis, at the rotation rate that the motion before the gap
+  // (its mean rate over divergence.gap_rate_window) and rate_after agree on.
   const StateHistory::Entry& before = history_.newest();
-  const double gap = imu.t - before.t;
   Eigen::Vector3d mean_rate = Eigen::Vector3d::Zero();
   const auto window = history_.entries_between(before.t - config_.divergence.gap_rate_window, before.t);
   for (const StateHistory::Entry* e : window) mean_rate += e->gyro - e->x.bg;
   if (!window.empty()) mean_rate /= static_cast<double>(window.size());
-  ImuSample coast;
-  coast.t = before.t;
-  coast.gyro = agreed_rate(mean_rate, imu.gyro - before.x.bg) + before.x.bg;
-  coast.accel = before.x.R.transpose() * (-before.x.g) + before.x.ba;
-  history_.add_imu(coast);  // same instant: replaces the held measurement
-  coast.t = imu.t - kLastStep;
-  history_.add_imu(coast);
+  ImuSample input;
+  input.t = before.t;
+  input.gyro = agreed_rate(mean_rate, rate_after) + before.x.bg;
+  input.accel = before.x.R.transpose() * (-before.x.g) + before.x.ba;
+  history_.add_imu(input);  // same instant: replaces the held measurement
+  input.t = t;
+  history_.add_imu(input);
+}
+
+void StateTracker::coast_across_gap(const ImuSample& imu) {
+  // Coast up to the sample after the gap, take the sample as usual, and grow the covariance by
+  // the unmodelled motion; the sample's accelerometer levels the coasted attitude.
+  constexpr double kLastStep = 0.001;  // s: the real sample closes the gap over the last millisecond
+  const double gap = imu.t - history_.newest().t;
+  coast(imu.gyro - history_.newest().x.bg, imu.t - kLastStep);
   NavState x = history_.newest().x;
   StateCovariance P = history_.newest().P + gap_noise(gap);
   if (config_.divergence.gap_level) {
@@ -91,6 +189,36 @@ void StateTracker::coast_across_gap(const ImuSample& imu) {
   }
   history_.amend_newest(x, P);
   history_.add_imu(imu);
+}
+
+bool StateTracker::coast_to(double t) {
+  if (!history_.initialised() || !(t > history_.newest().t)) return false;
+  const StateHistory::Entry& before = history_.newest();
+  const double dt = t - before.t;
+  if (!coasted_) {
+    flag_gap(t, fmt::format("IMU silent since t={:.6f} while scans arrive: coasting to the scan end t={:.6f}",
+                            last_imu_t_, t));
+  }
+  // No sample after the gap yet: the rate the motion before agrees on with the newest held rate.
+  coast(before.gyro - before.x.bg, t);
+  history_.amend_newest(history_.newest().x, history_.newest().P + gap_noise(dt));
+  coasted_ = true;
+  return true;
+}
+
+void StateTracker::widen(double t) {
+  // At least the covariance of a gap of unknown length, block by block (position, velocity,
+  // rotation): widening an already uncertain prior again would only lose information.
+  const StateQuery q = history_.query(t);
+  if (!q.ok()) return;
+  const StateCovariance unknown = gap_noise(config_.clock.max_gap_s);
+  StateCovariance Q = StateCovariance::Zero();
+  for (int idx : {Idx::kPos, Idx::kVel, Idx::kRot}) {
+    if (q.P.block<3, 3>(idx, idx).diagonal().maxCoeff() < unknown(idx, idx)) {
+      Q.block<3, 3>(idx, idx) = unknown.block<3, 3>(idx, idx);
+    }
+  }
+  history_.inflate(t, Q);
 }
 
 void level_with_accelerometer(const Eigen::Vector3d& f, double sigma, NavState& x, StateCovariance& P) {
@@ -144,6 +272,10 @@ StateCovariance StateTracker::gap_noise(double dt) const {
 void StateTracker::restore(double t, const NavState& x, const StateCovariance& P, const ImuSample& held) {
   history_.reset(t, x, P, held);
   last_imu_t_ = std::max(last_imu_t_, t);
+  gate_.reset(last_imu_t_);
+  gated_.clear();
+  coasted_ = false;
+  events_.push_back({TrackingEvent::kRestart, t});
 }
 
 }  // namespace fuse

@@ -182,16 +182,21 @@ void LivoxUdpSource::receive_loop() {
 bool LivoxUdpSource::next(SensorEvent& out) {
   std::unique_lock<std::mutex> lock(mutex_);
   for (;;) {
+    if (!passed_.empty()) {
+      out = std::move(passed_.front());
+      passed_.pop_front();
+      return true;
+    }
     cv_.wait(lock, [this] { return !queue_.empty() || receiver_done_; });
     if (queue_.empty()) {
+      validator_.finish();
       stats_ = validator_.stats();
       return false;
     }
-    out = std::move(queue_.front());
+    SensorEvent event = std::move(queue_.front());
     queue_.pop_front();
-    const bool ok = out.kind == SensorEvent::Kind::kImu ? validator_.accept(out.imu) : validator_.accept(out.scan);
+    validator_.check(std::move(event), passed_);
     stats_ = validator_.stats();
-    if (ok) return true;
   }
 }
 

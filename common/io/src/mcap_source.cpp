@@ -42,7 +42,8 @@ Eigen::Isometry3d parse_calibration_metadata(const mcap::StringMap& values, cons
   return T;
 }
 
-McapSource::McapSource(const std::string& path) : path_(path), reader_(path), validator_("MCAP '" + path + "'") {
+McapSource::McapSource(const std::string& path, const TimeGateConfig& clock)
+    : path_(path), reader_(path), validator_("MCAP '" + path + "'", clock) {
   // The channels this source decodes must carry the expected types.
   for (const auto& [id, channel] : reader_.channels()) {
     const bool imu = channel.topic == kImuTopic, scan = channel.topic == kLidarTopic;
@@ -140,20 +141,27 @@ bool McapSource::seek(double t) {
   reader_.start(options);
   lookahead_.reset();
   ready_.clear();
+  passed_.clear();
+  validator_.restart();
   return true;
 }
 
 bool McapSource::next(SensorEvent& out) {
   for (;;) {
+    if (!passed_.empty()) {
+      out = std::move(passed_.front());
+      passed_.pop_front();
+      return true;
+    }
     while (ready_.empty()) {
       if (fill()) continue;
+      validator_.finish();
       if (read_error_) throw *read_error_;  // after every event read before the error
       return false;
     }
-    out = std::move(ready_.front());
+    SensorEvent event = std::move(ready_.front());
     ready_.pop_front();
-    const bool ok = out.kind == SensorEvent::Kind::kImu ? validator_.accept(out.imu) : validator_.accept(out.scan);
-    if (ok) return true;
+    validator_.check(std::move(event), passed_);
   }
 }
 

@@ -46,12 +46,19 @@ std::string OusterPcapSource::describe() const {
 
 bool OusterPcapSource::next(SensorEvent& out) {
   for (;;) {
-    while (!ready_.empty()) {
-      out = std::move(ready_.front());
+    if (!passed_.empty()) {
+      out = std::move(passed_.front());
+      passed_.pop_front();
+      return true;
+    }
+    if (!ready_.empty()) {
+      SensorEvent event = std::move(ready_.front());
       ready_.pop_front();
-      if (out.kind == SensorEvent::Kind::kImu ? validator_.accept(out.imu) : validator_.accept(out.scan)) return true;
+      validator_.check(std::move(event), passed_);
+      continue;
     }
     if (finished_) {
+      validator_.finish();
       if (!error_.empty()) throw InputError(error_);
       return false;
     }

@@ -134,7 +134,8 @@ Eigen::Isometry3d read_calib_yaml(const std::string& file) {
   return out;
 }
 
-SeqdirSource::SeqdirSource(const std::string& dir) : dir_(dir), validator_("sequence directory '" + dir + "'") {
+SeqdirSource::SeqdirSource(const std::string& dir, const TimeGateConfig& clock)
+    : dir_(dir), validator_("sequence directory '" + dir + "'", clock, /*interleaved=*/false), max_gap_s_(clock.max_gap_s) {
   if (!fs::is_directory(dir)) throw InputError(dir + ": not a directory");
   read_scans_csv();
   read_imu_csv();
@@ -216,22 +217,50 @@ std::string SeqdirSource::describe() const {
          std::to_string(imu_.size()) + " IMU samples)";
 }
 
-bool SeqdirSource::next(SensorEvent& out) {
-  for (;;) {
-    const bool have_imu = next_imu_ < imu_.size(), have_scan = next_scan_ < scans_.size();
-    if (!have_imu && !have_scan) return false;
-    // Arrival order: IMU at t, scan at t_end; on a tie the IMU sample comes first.
-    const bool take_imu = have_imu && (!have_scan || !(imu_[next_imu_].t > scans_[next_scan_].t_end));
-    if (take_imu) {
-      out.kind = SensorEvent::Kind::kImu;
-      out.imu = imu_[next_imu_++];
-      if (validator_.accept(out.imu)) return true;
-    } else {
-      out.kind = SensorEvent::Kind::kLidar;
-      out.scan = load_scan(scans_[next_scan_++]);
-      if (validator_.accept(out.scan)) return true;
+void SeqdirSource::fill_streams() {
+  // Each file is checked in its own order before the two are merged by time: a stamp that jumps
+  // must be judged among its neighbours in the file, not moved by the merge. The merge runs on
+  // each stream's continuous time (stamps less the clock steps found before them).
+  auto check = [this](SensorEvent e, std::deque<Passed>& passed) {
+    std::deque<SensorEvent> out;
+    validator_.check(std::move(e), out);
+    for (SensorEvent& o : out) {
+      const double t = o.kind == SensorEvent::Kind::kImu ? o.imu.t : o.scan.t_end;
+      passed.push_back({t, validator_.clock_offset(o.kind), std::move(o)});
     }
+  };
+  while (imu_passed_.empty() && next_imu_ < imu_.size()) {
+    SensorEvent e;
+    e.kind = SensorEvent::Kind::kImu;
+    e.imu = imu_[next_imu_++];
+    check(std::move(e), imu_passed_);
   }
+  while (scans_passed_.empty() && next_scan_ < scans_.size()) {
+    SensorEvent e;
+    e.kind = SensorEvent::Kind::kLidar;
+    e.scan = load_scan(scans_[next_scan_++]);
+    check(std::move(e), scans_passed_);
+  }
+  if (next_imu_ == imu_.size() && next_scan_ == scans_.size()) validator_.finish();
+}
+
+double SeqdirSource::merge_time(const Passed& p) const {
+  if (p.event.kind == SensorEvent::Kind::kImu) return p.t - p.offset;
+  const double imu_offset = validator_.clock_offset(SensorEvent::Kind::kImu);
+  return p.t - (std::abs(p.offset - imu_offset) <= max_gap_s_ ? imu_offset : p.offset);
+}
+
+bool SeqdirSource::next(SensorEvent& out) {
+  fill_streams();
+  const bool have_imu = !imu_passed_.empty(), have_scan = !scans_passed_.empty();
+  if (!have_imu && !have_scan) return false;
+  // Arrival order: IMU at t, scan at t_end; on a tie the IMU sample comes first.
+  const bool take_imu =
+      have_imu && (!have_scan || !(merge_time(imu_passed_.front()) > merge_time(scans_passed_.front())));
+  std::deque<Passed>& from = take_imu ? imu_passed_ : scans_passed_;
+  out = std::move(from.front().event);
+  from.pop_front();
+  return true;
 }
 
 }  // namespace fuse::io

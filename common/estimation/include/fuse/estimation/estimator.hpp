@@ -4,9 +4,11 @@
 //
 // The single-process composition of the two sides the services split between them:
 // StateTracker (IMU checks, initialisation, propagation: fuse-state) and LidarUpdater (one LiDAR
-// step on a history: fuse-update). One scan: check it, make sure the history has an entry at
-// its end t_e, run the LiDAR step there (which corrects the history at t_e and re-propagates the
-// later IMU), check for divergence.
+// step on a history: fuse-update). One scan: check it (its time too: TimeGate against the scan
+// stream, a jump decided by the IMU clock), coast the history to its end t_e when the IMU is
+// silent there, make sure the history has an entry at t_e, run the LiDAR step there (which
+// corrects the history at t_e and re-propagates the later IMU), check for divergence, and judge
+// the tracking status from the step's report (TrackingMonitor).
 #pragma once
 
 #include <cstdint>
@@ -16,6 +18,7 @@
 #include "fuse/estimation/estimator_config.hpp"
 #include "fuse/estimation/lidar_updater.hpp"
 #include "fuse/estimation/state_tracker.hpp"
+#include "fuse/estimation/tracking_monitor.hpp"
 
 namespace fuse {
 
@@ -24,7 +27,10 @@ class Estimator {
   explicit Estimator(const EstimatorConfig& config);
 
   /// D_in: checks and routes one IMU sample (→ propagate).
-  void ingest(const ImuSample& imu) { tracker_.ingest(imu); }
+  void ingest(const ImuSample& imu) {
+    tracker_.ingest(imu);
+    forward_events();
+  }
   /// D_in: checks one scan and runs the LiDAR step; returns its report. Throws DivergenceError.
   ScanReport ingest(const LidarScan& scan);
   /// Φ_k: propagation by one IMU sample into the history.
@@ -44,18 +50,31 @@ class Estimator {
   /// Counts of refused and flagged input, from both sides.
   std::map<std::string, std::uint64_t> counters() const;
   const EstimatorConfig& config() const { return config_; }
+  /// Scans refused before they reached the estimator (the source's checks): they arrived, so they
+  /// count as time without a LiDAR update for the tracking status.
+  void note_refused_scans(std::size_t n) {
+    if (!initialised()) return;
+    for (std::size_t i = 0; i < n; ++i) monitor_.on_refused_scan();
+  }
+  /// tracking / relocalizing / lost, with the reason and the episodes so far.
+  const TrackingMonitor& tracking() const { return monitor_; }
 
  private:
+  /// Hands the tracker's gap, clock-step and restart events to the monitor.
+  void forward_events();
+
   EstimatorConfig config_;
   StateTracker tracker_;
   LidarUpdater updater_;
+  TrackingMonitor monitor_;
+  TimeGate scan_gate_;
   Counters counters_;  ///< scan checks
-  double last_scan_t_ = -1.0;
 };
 
-/// Checks a scan against the previous one and the history before the LiDAR step (shared by the
-/// Estimator and fuse-update). Returns false (counted in `counters`) when it must be skipped.
-bool accept_scan(const LidarScan& scan, double last_scan_t, const StateHistory& history, double max_imu_gap,
-                 Counters& counters);
+/// Checks a scan before the LiDAR step: its times, the state's initialisation, and its end against
+/// the scan stream (`gate`, with the history's newest time as the reference clock that decides a
+/// jump). Returns false (counted in `counters`) when it must be skipped. The Estimator's; a service
+/// that holds the history can call it the same way.
+bool accept_scan(const LidarScan& scan, TimeGate& gate, const StateHistory& history, Counters& counters);
 
 }  // namespace fuse

@@ -9,10 +9,12 @@
 #include "fuse/association/associator.hpp"
 #include "fuse/association/spatial_index.hpp"
 #include "fuse/core/config.hpp"
+#include "fuse/core/time_gate.hpp"
 #include "fuse/estimation/imu_propagation.hpp"
 #include "fuse/estimation/point_to_plane_model.hpp"
 #include "fuse/estimation/state_history.hpp"
 #include "fuse/estimation/static_initializer.hpp"
+#include "fuse/estimation/tracking_monitor.hpp"
 #include "fuse/estimation/update_backend.hpp"
 #include "fuse/map/map_policy.hpp"
 
@@ -66,6 +68,12 @@ struct DivergenceConfig {
   /// direction update with noise σ_a/|g| (level_with_accelerometer). A handheld sensor sways by
   /// tens of degrees of roll and pitch within a gap that no rate before or after it tells.
   bool gap_level = true;
+  /// A scan that ends more than max_imu_gap after the newest IMU sample (the IMU silent while the
+  /// LiDAR runs: a dropout, a burst of NaN samples) coasts the history to its end as across a data
+  /// gap (StateTracker::coast_to), so that the scan is re-localised against the map. false: the
+  /// history is extrapolated with the held IMU measurement and a tight covariance (a negative
+  /// control: the scans cannot pull the state back).
+  bool coast_silent_imu = true;
   void load(ConfigNode& node);
 };
 
@@ -120,6 +128,8 @@ struct EstimatorConfig {
   InitialCovarianceConfig initial_covariance;
   DivergenceConfig divergence;
   RecoveryConfig recovery;
+  TimeGateConfig clock;      ///< time checks of the IMU and scan streams
+  TrackingConfig tracking;   ///< tracking / relocalizing / lost
   /// Reads the `estimator` section of a config file (unknown keys are refused).
   void load(ConfigNode& node);
 };

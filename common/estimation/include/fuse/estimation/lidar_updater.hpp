@@ -21,32 +21,12 @@
 #include "fuse/core/types.hpp"
 #include "fuse/estimation/deskew.hpp"
 #include "fuse/estimation/estimator_config.hpp"
+#include "fuse/estimation/scan_report.hpp"
 #include "fuse/estimation/state_history.hpp"
 #include "fuse/estimation/update_backend.hpp"
 #include "fuse/map/map_policy.hpp"
 
 namespace fuse {
-
-/// Per-scan diagnostics and timing (written by the runner to timing.csv / diagnostics.csv).
-struct ScanReport {
-  double t = 0.0;
-  std::uint64_t sequence = 0;
-  bool updated = false;
-  std::size_t points_in = 0, points_kept = 0;
-  std::size_t constraints = 0, rejected_no_neighbors = 0, rejected_not_planar = 0, rejected_screening = 0;
-  int iterations = 0;
-  bool converged = false;
-  bool recovery = false;  ///< the prior was uncertain: re-localised (estimator.recovery)
-  double fit = 0.0;  ///< re-localisation: 1 − mean truncated residual cost (min(r², τ²)/τ²) of the scan's points
-  double min_eig_translation = 0.0, min_eig_rotation = 0.0, min_gamma = 1.0, min_eig_ratio = 1.0;
-  std::size_t map_points = 0, map_inserted = 0;
-  /// This scan's contribution to the uncertainty of the map frame itself, in the world frame and
-  /// block-diagonal (position; rotation as a world-frame perturbation): f·P with f the fraction of
-  /// its points that went into the map. The filter's P is relative to the map, and newly mapped
-  /// space inherits the pose's error (see LidarUpdater::process). Zero when nothing was mapped.
-  Eigen::Matrix<double, 6, 6> map_drift = Eigen::Matrix<double, 6, 6>::Zero();
-  double ms_deskew = 0.0, ms_association = 0.0, ms_update = 0.0, ms_map = 0.0, ms_total = 0.0;
-};
 
 class LidarUpdater {
  public:
@@ -79,6 +59,12 @@ class LidarUpdater {
   void downsample();
   void order_spatially();
   void check_divergence(const ScanReport& report, const StateHistory& history);
+  /// Truncated residual cost of the scan's kept points against their constraints at x (below).
+  double truncated_cost(const NavState& x) const;
+  /// The fit (ScanReport::fit) of a truncated cost.
+  double fit_of(double cost) const;
+  /// ScanReport::match_fit at x: 1 − (1/M) Σ_j min(r_j², τ²)/τ² over the M constrained points.
+  double match_fit(const NavState& x) const;
   /// Re-localises the scan at t from several headings and keeps the best fit (recovery.heading_*);
   /// corrects the history at t and fills the report's update fields.
   UpdateResult relocalise(StateHistory& history, double t, ScanReport& report);

@@ -77,11 +77,16 @@ class StateHistory {
   void correct(double t, const NavState& x, const StateCovariance& P);
   /// Stale entries are recomputed when read; below this many, new samples refresh them at once.
   static constexpr std::size_t kEagerRefresh = 64;
+  /// Adds Q to the covariance of the entry at t (which must exist) and re-propagates later
+  /// entries, without making it a correction (a lost track's prior widened for re-localisation).
+  void inflate(double t, const StateCovariance& Q);
 
   StateQuery query(double t) const;
   /// The end of the latest step between consecutive entries that is longer than max_step (coasted
-  /// across a data gap: nothing measured the motion) and ends in (t0, t1]; t0 when there is none.
-  /// Motion from before that time to t1 is not known.
+  /// across a data gap: nothing measured the motion) and ends in (t0, t1) where the IMU resumed;
+  /// t0 when there is none. Motion from before that time to t1 is not known. A step that ends at
+  /// t1 itself (a scan inside a coasted step: StateTracker::coast_to) does not count: the scan is
+  /// deskewed at the constant velocity it was coasted with.
   double measured_since(double t0, double t1, double max_step) const;
   /// Entries with t0 ≤ t ≤ t1 (the caller interpolates between them).
   std::vector<const Entry*> entries_between(double t0, double t1) const;

@@ -78,6 +78,7 @@ class LivoxUdpSource : public SensorSource {
   std::mutex mutex_;
   std::condition_variable cv_;
   std::deque<SensorEvent> queue_;
+  std::deque<SensorEvent> passed_;  ///< checked (SourceValidator), read by next() only
   livox::ScanAssembler assembler_;
   std::uint64_t late_reported_ = 0, empty_reported_ = 0;
   std::uint64_t imu_sequence_ = 0;

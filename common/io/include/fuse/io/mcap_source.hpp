@@ -16,7 +16,7 @@ namespace fuse::io {
 
 class McapSource : public SensorSource {
  public:
-  explicit McapSource(const std::string& path);
+  explicit McapSource(const std::string& path, const TimeGateConfig& clock = {});
   bool next(SensorEvent& out) override;
   std::optional<Eigen::Isometry3d> T_imu_lidar() const override { return T_imu_lidar_; }
   const SourceStats& stats() const override { return validator_.stats(); }
@@ -37,7 +37,8 @@ class McapSource : public SensorSource {
   std::optional<Eigen::Isometry3d> T_imu_lidar_;
   std::optional<McapMessage> lookahead_;
   std::optional<InputError> read_error_;
-  std::deque<SensorEvent> ready_;
+  std::deque<SensorEvent> ready_;   ///< decoded, not yet checked
+  std::deque<SensorEvent> passed_;  ///< checked (SourceValidator), in stream order
   std::set<std::uint16_t> unknown_channels_;
 };
 

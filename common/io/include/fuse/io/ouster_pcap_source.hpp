@@ -49,7 +49,8 @@ class OusterPcapSource : public SensorSource {
   SourceValidator validator_;
   std::unique_ptr<ouster::Stream> stream_;
   std::unique_ptr<pcap::PcapReader> reader_;
-  std::deque<SensorEvent> ready_;
+  std::deque<SensorEvent> ready_;   ///< assembled, not yet checked
+  std::deque<SensorEvent> passed_;  ///< checked (SourceValidator)
   bool finished_ = false;
   std::string error_;  ///< raised once the events are delivered: no full frame
   std::uint64_t datagrams_ = 0;

@@ -69,6 +69,7 @@ class OusterUdpSource : public SensorSource {
   SourceValidator validator_;
   std::unique_ptr<ouster::Stream> stream_;
   std::deque<SensorEvent> queue_;
+  std::deque<SensorEvent> passed_;  ///< checked (SourceValidator), read by next() only
   SourceStats stats_;
   bool receiver_done_ = false;
   std::thread thread_;

@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "fuse/core/time_gate.hpp"
 #include "fuse/core/types.hpp"
 
 namespace fuse::io {
@@ -34,6 +35,7 @@ struct SensorEvent {
 struct SourceStats {
   std::uint64_t imu_samples = 0;
   std::uint64_t scans = 0;
+  std::uint64_t imu_refused = 0, scans_refused = 0;  ///< samples dropped by the checks
   std::map<std::string, std::uint64_t> rejected;  ///< reason -> count
 };
 
@@ -55,7 +57,8 @@ class SensorSource {
   }
 };
 
-/// Opens an MCAP recording (a file) or a sequence directory (a folder), by what the path is.
-std::unique_ptr<SensorSource> open_sensor_source(const std::string& path);
+/// Opens an MCAP recording (a file) or a sequence directory (a folder), by what the path is;
+/// `clock` configures the time checks of its streams (estimator.clock).
+std::unique_ptr<SensorSource> open_sensor_source(const std::string& path, const TimeGateConfig& clock = {});
 
 }  // namespace fuse::io

@@ -2,6 +2,7 @@
 // checked when opening; raw scans are read one at a time as they are reached.
 #pragma once
 
+#include <deque>
 #include <optional>
 #include <string>
 #include <vector>
@@ -18,7 +19,7 @@ inline constexpr std::size_t kRawPointBytes = 24;
 
 class SeqdirSource : public SensorSource {
  public:
-  explicit SeqdirSource(const std::string& dir);
+  explicit SeqdirSource(const std::string& dir, const TimeGateConfig& clock = {});
   bool next(SensorEvent& out) override;
   std::optional<Eigen::Isometry3d> T_imu_lidar() const override { return T_imu_lidar_; }
   const SourceStats& stats() const override { return validator_.stats(); }
@@ -35,13 +36,27 @@ class SeqdirSource : public SensorSource {
   void read_imu_csv();
   void read_calib();
   LidarScan load_scan(const ScanEntry& entry) const;
+  /// Reads each stream through its time check until it has a sample to offer (or is exhausted).
+  void fill_streams();
 
   std::string dir_;
   std::vector<ScanEntry> scans_;
   std::vector<ImuSample> imu_;
   std::size_t next_scan_ = 0, next_imu_ = 0;
+  /// An event that passed the checks, with the clock steps its stream made before it.
+  struct Passed {
+    double t;       ///< stamp (IMU: t, scan: t_end)
+    double offset;  ///< s: the sum of its stream's clock steps (SourceValidator::clock_offset)
+    SensorEvent event;
+  };
+  /// The time a passed event is merged on: its stream's continuous time, t − offset (a stream that
+  /// stepped merges where it arrived). Scans whose clock stepped as the IMU's did use the IMU's
+  /// offset: the same step, measured to an IMU period instead of a scan period.
+  double merge_time(const Passed& p) const;
+  std::deque<Passed> imu_passed_, scans_passed_;  ///< checked, in file order
   std::optional<Eigen::Isometry3d> T_imu_lidar_;
   SourceValidator validator_;
+  double max_gap_s_;  ///< estimator.clock.max_gap_s
 };
 
 /// Reads calib.yaml (T_imu_lidar: {translation: [x,y,z], rotation_xyzw: [qx,qy,qz,qw]}).

@@ -1,0 +1,38 @@
+// What one LiDAR step did (LidarUpdater::process): written by the runner to timing.csv /
+// diagnostics.csv, and what a TrackingMonitor judges the track by.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace fuse {
+
+/// Per-scan diagnostics and timing.
+struct ScanReport {
+  double t = 0.0;
+  std::uint64_t sequence = 0;
+  bool updated = false;
+  std::size_t points_in = 0, points_kept = 0;
+  std::size_t constraints = 0, rejected_no_neighbors = 0, rejected_not_planar = 0, rejected_screening = 0;
+  int iterations = 0;
+  bool converged = false;
+  bool recovery = false;  ///< the prior was uncertain: re-localised (estimator.recovery)
+  /// 1 − mean truncated residual cost (min(r², τ²)/τ², τ = recovery.inlier_residual) of the scan's
+  /// kept points at the posterior (a point without a plane costs 1); every updated scan.
+  double fit = 0.0;
+  /// The same over the points that have a constraint only: how well the matched points lie on
+  /// their planes, whatever share of the scan found a plane (an open scene leaves many without).
+  double match_fit = 0.0;
+  double prior_position_std = 0.0;  ///< m: largest σ of the prior position at the scan end
+  double prior_rotation_std = 0.0;  ///< rad: largest σ of the prior rotation
+  double min_eig_translation = 0.0, min_eig_rotation = 0.0, min_gamma = 1.0, min_eig_ratio = 1.0;
+  std::size_t map_points = 0, map_inserted = 0;
+  /// This scan's contribution to the uncertainty of the map frame itself, in the world frame and
+  /// block-diagonal (position; rotation as a world-frame perturbation): f·P with f the fraction of
+  /// its points that went into the map. The filter's P is relative to the map, and newly mapped
+  /// space inherits the pose's error (see LidarUpdater::process). Zero when nothing was mapped.
+  Eigen::Matrix<double, 6, 6> map_drift = Eigen::Matrix<double, 6, 6>::Zero();
+  double ms_deskew = 0.0, ms_association = 0.0, ms_update = 0.0, ms_map = 0.0, ms_total = 0.0;
+};
+
+}  // namespace fuse
