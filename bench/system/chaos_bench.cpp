@@ -11,6 +11,8 @@
 // 2. The system under test: fuse-launch --restart --mode realtime (the product's own launcher:
 //    its restarts, its summary and its exit code are part of what is judged), with the map
 //    directory on a tmpfs of --map-tmpfs-mb when given (root; skipped with a note otherwise).
+//    --max-restarts 1000: the soak kills on purpose, often within 10 s of a restart, which the
+//    launcher's crash-loop guard (5 early deaths in a row) would otherwise take for a crash loop.
 // 3. While it replays: every U(MIN, MAX) s one service, or with probability F two different
 //    ones, chosen at random among the four, is SIGKILLed (the launcher restarts it); the map
 //    disk is filled for FOR seconds from S s on (a filler file leaves the tmpfs ~no room) and
@@ -279,7 +281,7 @@ int main(int argc, char** argv) {
   fs::remove_all(disk.map_dir());
   Process launcher = Process::spawn({o.bin_dir + "/fuse-launch", "--config", o.config, "--input", o.input, "--mode",
                                      "realtime", "--out", run_dir, "--map-dir", disk.map_dir(), "--domain",
-                                     std::to_string(o.domain), "--restart"},
+                                     std::to_string(o.domain), "--restart", "--max-restarts", "1000"},
                                     o.out + "/launch.log");
 
   fuse::service::SystemConfig config = fuse::service::load_system_config(o.config, {"transport.domain_id=" + std::to_string(o.domain)});

@@ -169,6 +169,7 @@ int IngestService::run() {
   std::optional<double> t0 = t0_;
   double wall0 = options_.start_wall.value_or(unix_now());
   bool pending = false;  // lockstep: a scan awaits its answer
+  double last_imu_t = -1.0;  // lockstep: the newest IMU sample published
   double pending_t = 0.0;
   std::uint64_t pending_sequence = 0;
   std::size_t skipped = 0;
@@ -197,6 +198,15 @@ int IngestService::run() {
           wait_for_correction(pending_t, pending_sequence);
           pending = false;
         }
+        // The IMU sample that ends a data gap decides how fuse-state coasts across it: fuse-run
+        // has the scan inside the gap processed (coasted to its end) before it sees that sample,
+        // so it must not overtake the scan's history request here either.
+        if (ev.kind == io::SensorEvent::Kind::kImu && pending && ev.imu.t > pending_t && last_imu_t >= 0.0 &&
+            ev.imu.t - last_imu_t > config_.estimator.divergence.max_imu_gap) {
+          wait_for_correction(pending_t, pending_sequence);
+          pending = false;
+        }
+        if (ev.kind == io::SensorEvent::Kind::kImu) last_imu_t = ev.imu.t;
         publish(ev);
         if (!confirmed && ev.kind == io::SensorEvent::Kind::kImu) {
           confirm_imu_readers();

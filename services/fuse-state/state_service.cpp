@@ -23,6 +23,9 @@ constexpr double kMaxHistorySpan = 1.0;
 /// A restored history whose newest IMU is this far past its last up-to-date entry is catching up
 /// on held scans: odometry waits, and the latest state answered is the up-to-date one.
 constexpr double kCatchUpS = 1.0;
+/// Wall-clock silence of the IMU after which a scan ahead of it is coasted to (a lockstep replay
+/// publishes the IMU before the scan, so only a real dropout is silent this long).
+constexpr double kImuSilenceS = 0.25;
 
 void set_error(fuse_msgs::RpcStatus status, const std::string& message, fuse_msgs::QueryReply& rep) {
   rep.error(status);
@@ -171,7 +174,9 @@ std::optional<fuse_msgs::StateEstimate> StateService::feed(const ImuSample& imu)
     return std::nullopt;
   }
   const bool was_initialised = tracker_.initialised();
+  last_imu_arrival_ = std::chrono::steady_clock::now();
   tracker_.ingest(imu);
+  take_tracker_events();
   if (!tracker_.initialised()) return std::nullopt;
   if (!was_initialised) live_since_t_ = tracker_.history().oldest_time();  // static initialisation
   if (catching_up()) {
@@ -213,6 +218,15 @@ void StateService::count_map_drift(const fuse_msgs::Correction& msg) {
   map_drift_t_ = msg.t();
 }
 
+void StateService::take_tracker_events() {
+  for (const StateTracker::Event& e : tracker_.take_events()) {
+    if (e.kind == TrackingEvent::kRestart) continue;  // restore_from says so itself
+    unconfirmed_ = true;
+    unconfirmed_why_ = std::string(to_string(e.kind)) + " at t=" + fmt::format("{:.3f}", e.t) +
+                       ": the prior is uncertain until a scan is re-localised";
+  }
+}
+
 void StateService::go_live() {
   if (live_) return;
   live_ = true;
@@ -227,6 +241,8 @@ void StateService::go_live() {
   checkpoint_.reset();
   if (best) {
     restore_from(*best, source);
+    // fuse-update skips the held scans at or before what is restored (state/corrected).
+    corrected_.publish(estimate(tracker_.history().query(best->t), best->scan_sequence));
     return;
   }
   logger(kName)->info("no correction to recover from: initialising from the IMU ({} buffered samples)",
@@ -262,7 +278,8 @@ void StateService::restore_from(const Posterior& post, const std::string& source
   }
   last_applied_correction_t_ = post.t;
   live_since_t_ = post.t;
-  restored_ = true;
+  unconfirmed_ = true;
+  unconfirmed_why_ = "restored after a restart: waiting for a scan to confirm the posterior";
   counters_.add("recoveries");
   if (replayed == 0) {
     logger(kName)->info("recovered from {} at t={:.3f}; no buffered IMU after it yet (the held IMU is still "
@@ -285,6 +302,7 @@ void StateService::on_correction(const fuse_msgs::Correction& msg) {
   std::optional<fuse_msgs::StateEstimate> corrected;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    if (std::isfinite(msg.t())) newest_correction_t_ = std::max(newest_correction_t_, msg.t());
     Posterior post;
     try {
       post = from_msg(msg);
@@ -316,7 +334,7 @@ void StateService::on_correction(const fuse_msgs::Correction& msg) {
         counters_.add("corrections_applied");
         count_map_drift(msg);
         if (checkpoint_writer_) checkpoint_writer_->offer(Checkpoint{post, map_drift_});
-        if (restored_ && msg.tracking() == fuse_msgs::TRACKING_OK) restored_ = false;
+        if (unconfirmed_ && msg.tracking() == fuse_msgs::TRACKING_OK) unconfirmed_ = false;
       }
     }
     update_tracking_ = msg.tracking();
@@ -358,9 +376,9 @@ Tracking StateService::tracking() {
     } else if (catching_up()) {
       now = Tracking::kRelocalizing;
       why = fmt::format("catching up on held scans ({:.1f} s behind the newest IMU)", h.newest_time() - h.fresh_time());
-    } else if (restored_) {
+    } else if (unconfirmed_) {
       now = Tracking::kRelocalizing;
-      why = "restored after a restart: waiting for a scan to confirm the posterior";
+      why = unconfirmed_why_;
     } else if (update_tracking_ == fuse_msgs::TRACKING_RELOCALIZING) {
       now = Tracking::kRelocalizing;
       why = "fuse-update re-localises scans against the map (the prior is uncertain)";
@@ -432,8 +450,52 @@ void StateService::on_history(const fuse_msgs::HistoryRequest& req, fuse_msgs::H
   }
   StateHistory& h = tracker_.history();
   if (h.newest_time() < t1) {
-    set_error(fuse_msgs::RPC_NOT_READY, "IMU does not cover the scan end yet", rep);
-    return;
+    // Beyond the allowed jump of a clock: the scan's stamp is wrong (or only the LiDAR clock has
+    // stepped so far); refused at once instead of holding fuse-update until its deadline.
+    const double ahead = t1 - tracker_.last_imu_time();
+    if (ahead > config_.estimator.clock.max_gap_s) {
+      counters_.count("history_ahead_of_imu", fmt::format("scan ending at t={:.3f} is {:.3f} s ahead of the IMU "
+                                                          "(more than estimator.clock.max_gap_s): refused",
+                                                          t1, ahead));
+      set_error(fuse_msgs::RPC_BAD_REQUEST, "scan end is far ahead of the IMU clock", rep);
+      return;
+    }
+    // Samples merely in flight (a scan overtaking its IMU on the wire) are waited for: the IMU
+    // must have been silent for kImuSilenceS of wall clock, counted from the newest sample and
+    // from the first request for this scan (a lockstep replay publishes the IMU after a dropout
+    // in a burst just before the scan, after a long silence). Then the scan is taken as fuse-run
+    // takes it: beyond divergence.max_imu_gap the state coasts to its end as across a data gap
+    // and the scan is re-localised; closer, ensure_entry below extrapolates with the held
+    // measurement.
+    const auto now = std::chrono::steady_clock::now();
+    if (t1 != silent_wait_t_) {
+      silent_wait_t_ = t1;
+      silent_wait_since_ = now;
+    }
+    const double silent = std::chrono::duration<double>(now - std::max(last_imu_arrival_, silent_wait_since_)).count();
+    if (silent < kImuSilenceS) {
+      set_error(fuse_msgs::RPC_NOT_READY, "IMU does not cover the scan end yet", rep);
+      return;
+    }
+    // Coasting starts from the newest entry: the requester's previous posterior must be in it,
+    // or the coast (its held specific force cancels gravity at the state it starts from) would
+    // start from the uncorrected state, which the requester cannot patch afterwards.
+    if (req.after_correction() > newest_correction_t_ + 1e-9) {
+      set_error(fuse_msgs::RPC_NOT_READY, "waiting for the requester's previous correction", rep);
+      return;
+    }
+    if (ahead > config_.estimator.divergence.max_imu_gap && config_.estimator.divergence.coast_silent_imu &&
+        tracker_.coast_to(t1)) {
+      counters_.count("history_coasted", fmt::format("the IMU is silent at the scan ending at t={:.3f} ({:.3f} s "
+                                                     "after the newest sample): coasted to it",
+                                                     t1, ahead));
+      logger(kName)->debug("history request for t={:.6f}: IMU silent {:.3f} s, coasted", t1, silent);
+      take_tracker_events();
+      if (!unconfirmed_) {
+        unconfirmed_ = true;
+        unconfirmed_why_ = "the IMU is silent: coasting, scans re-localised";
+      }
+    }
   }
   if (!h.ensure_entry(t1)) {
     counters_.add("history_too_old");

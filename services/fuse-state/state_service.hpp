@@ -24,6 +24,7 @@
 // state.lost_after_s of IMU).
 #pragma once
 
+#include <chrono>
 #include <deque>
 #include <fstream>
 #include <memory>
@@ -57,6 +58,8 @@ class StateService {
   /// Feeds one IMU sample to the tracker (lock held) and returns the odometry to publish.
   std::optional<fuse_msgs::StateEstimate> feed(const ImuSample& imu);
   void restore_from(const Posterior& post, const std::string& source);
+  /// The tracker's events (data gap, clock step): the prior is uncertain until a scan confirms it.
+  void take_tracker_events();
   void go_live();  ///< end of the recovery wait: restore (or initialise) from what is held
   /// True while a restored history is being caught up (corrections far behind the newest IMU).
   bool catching_up() const;
@@ -81,8 +84,15 @@ class StateService {
   std::unique_ptr<CheckpointWriter> checkpoint_writer_;
   std::uint64_t odometry_sequence_ = 0;
   double last_applied_correction_t_ = -1.0;
+  double newest_correction_t_ = -1.0;  ///< of any correction received (applied or not)
   double live_since_t_ = -1.0;  ///< sensor time from which the state is known (init or restore)
-  bool restored_ = false;       ///< relocalizing until a scan is updated with TRACKING_OK after the restore
+  /// Relocalizing until a scan is updated with TRACKING_OK after this: a restore, a data gap, a
+  /// clock step (the tracker's events), a coast to a scan while the IMU is silent.
+  bool unconfirmed_ = false;
+  std::string unconfirmed_why_;
+  std::chrono::steady_clock::time_point last_imu_arrival_{};  ///< wall clock of the newest IMU sample
+  double silent_wait_t_ = -1.0;  ///< the scan end a history request waits on, IMU silent
+  std::chrono::steady_clock::time_point silent_wait_since_{};  ///< since when it was first asked for
   fuse_msgs::TrackingState update_tracking_ = fuse_msgs::TRACKING_OK;  ///< of the newest correction
   Tracking tracking_ = Tracking::kTracking;
   std::string tracking_reason_;

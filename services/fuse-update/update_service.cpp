@@ -24,6 +24,7 @@ UpdateService::UpdateService(const SystemConfig& config, transport::Participant&
     : config_(config),
       session_(transport::random_id()),
       updater_(config.estimator),
+      monitor_(config.estimator.tracking),
       backlog_(config.estimator.preprocess, config.update.max_backlog_s),
       unacked_({config.update.max_unacked, config.update.max_unacked_bytes, config.update.resend_after_s}),
       counters_(logger(kName)),
@@ -226,6 +227,7 @@ UpdateService::Fetch UpdateService::fetch_history(const LidarScan& scan, StateHi
   fuse_msgs::HistoryRequest req;
   req.t_start(scan.t_start);
   req.t_end(scan.t_end);
+  req.after_correction(last_posterior_ ? last_posterior_->t : 0.0);
   for (;;) {
     const auto left = std::chrono::duration_cast<Ms>(end - Clock::now());
     if (stop_requested()) return Fetch::kHold;
@@ -251,7 +253,11 @@ UpdateService::Fetch UpdateService::fetch_history(const LidarScan& scan, StateHi
     if (result.status == fuse_msgs::RPC_UNAVAILABLE) return Fetch::kHold;
     std::lock_guard<std::mutex> lock(mutex_);
     if (!result.ok()) {
-      counters_.count("history_refused", "fuse-state refused the history request: " + result.message);
+      // A scan older than fuse-state's history: one a restarted fuse-state restored past (it was
+      // answered before its restart), not a fault; anything else is.
+      const bool too_old = result.message.find("older than the state history") != std::string::npos;
+      counters_.count(too_old ? "scans_older_than_state" : "history_refused",
+                      "fuse-state refused the history request: " + result.message);
       return Fetch::kSkip;
     }
     std::vector<StateHistory::Entry> entries;
@@ -326,13 +332,19 @@ UpdateService::Outcome UpdateService::process(LidarScan& scan) {
   StateHistory history(config_.estimator.history, config_.estimator.imu);
   switch (fetch_history(scan, history)) {
     case Fetch::kHold: return Outcome::kHold;
-    case Fetch::kSkip: publish_skipped(scan); return Outcome::kDone;
+    case Fetch::kSkip:
+      monitor_.on_refused_scan();
+      publish_skipped(scan);
+      return Outcome::kDone;
     case Fetch::kOk: break;
   }
   last_scan_t_ = scan.t_end;
+  // A lost track keeps trying: the scan is re-localised from a widened prior (as in fuse-run).
+  if (monitor_.wants_relocalisation()) widen_prior(history, scan.t_end, config_.estimator);
   ScanReport report;
   try {
     report = updater_.process(scan, history);
+    monitor_.on_scan(report);
   } catch (const DivergenceError& e) {
     {
       std::lock_guard<std::mutex> lock(mutex_);
@@ -357,13 +369,19 @@ UpdateService::Outcome UpdateService::process(LidarScan& scan) {
   c.min_gamma(report.min_gamma);
   c.update_ms(report.ms_total);
   c.converged(report.converged);
-  c.fit(report.fit);
+  c.fit(report.match_fit);
   for (int r = 0; r < 6; ++r) {
     for (int k = 0; k < 6; ++k) c.map_drift()[static_cast<std::size_t>(r * 6 + k)] = report.map_drift(r, k);
   }
-  const bool relocalizing =
-      report.recovery && (!report.converged || report.fit < config_.estimator.recovery.min_fit);
-  c.tracking(relocalizing ? fuse_msgs::TRACKING_RELOCALIZING : fuse_msgs::TRACKING_OK);
+  switch (monitor_.status()) {
+    case TrackingStatus::kTracking: c.tracking(fuse_msgs::TRACKING_OK); break;
+    case TrackingStatus::kRelocalizing: c.tracking(fuse_msgs::TRACKING_RELOCALIZING); break;
+    case TrackingStatus::kLost: c.tracking(fuse_msgs::TRACKING_LOST); break;
+  }
+  if (monitor_.status() != TrackingStatus::kTracking) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    last_error_ = std::string(to_string(monitor_.status())) + ": " + monitor_.reason();
+  }
   corrections_.publish(c);
   offer_to_map(scan.t_end);
   std::lock_guard<std::mutex> lock(mutex_);

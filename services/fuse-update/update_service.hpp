@@ -26,6 +26,7 @@
 #include <string>
 
 #include "fuse/estimation/lidar_updater.hpp"
+#include "fuse/estimation/tracking_monitor.hpp"
 #include "fuse/service/convert.hpp"
 #include "fuse/service/health.hpp"
 #include "fuse/service/scan_backlog.hpp"
@@ -65,6 +66,7 @@ class UpdateService {
   SystemConfig config_;
   const std::uint64_t session_;
   LidarUpdater updater_;  ///< worker thread only
+  TrackingMonitor monitor_;  ///< worker thread only: tracking / relocalizing / lost, sent in each Correction
   double last_scan_t_ = -1.0;
   std::optional<Posterior> last_posterior_;  ///< worker thread only: the newest SCAN_UPDATED published
   std::uint64_t observation_sequence_ = 0;

@@ -35,6 +35,7 @@
 #include "fuse/map/map_server_core.hpp"
 #include "fuse/service/system_config.hpp"
 #include "fuse/transport/msg_traits.hpp"
+#include "faulty_sequence.hpp"
 #include "runner.hpp"
 
 namespace fuse {
@@ -107,11 +108,13 @@ class Pipeline {
     std::vector<std::string> argv{kBin + "/" + service};
     argv.insert(argv.end(), common_.begin(), common_.end());
     if (service == "fuse-map") argv.insert(argv.end(), {"--map-dir", dir_ + "/map"});
+    // A fuse-sim output folder (its recording), or a sequence directory as it is.
+    const std::string source = fs::exists(input + "/raw") ? input : input + "/recording.mcap";
     if (service == "fuse-state") {
-      argv.insert(argv.end(), {"--trajectory", trajectory(), "--calibration-from", input + "/recording.mcap", "--set",
+      argv.insert(argv.end(), {"--trajectory", trajectory(), "--calibration-from", source, "--set",
                                "state.checkpoint_file=" + dir_ + "/state.checkpoint"});
     }
-    if (service == "fuse-ingest") argv.insert(argv.end(), {"--input", input + "/recording.mcap"});
+    if (service == "fuse-ingest") argv.insert(argv.end(), {"--input", source});
     argv.insert(argv.end(), more.begin(), more.end());
     const int n = ++starts_[service];
     procs_.erase(service);
@@ -493,6 +496,41 @@ TEST_F(MultiProcess, StateDownForEightSecondsCatchesUpOnTheHeldScans) {
   std::cout << "fuse-state down 8 s: " << traj.size() << " poses (fuse-run " << short_run_poses() << "), ATE " << ate_m
             << " m\n";
   EXPECT_LT(ate_m, 0.1);
+}
+
+// Faults of time and of the IMU (time_fault_test.cpp) through the services in lockstep: a 0.7 s
+// IMU dropout while the LiDAR runs (fuse-state coasts to the silent scans as fuse-run does) and
+// one IMU sample stamped 10 s ahead (dropped by fuse-ingest's time check): the services give
+// fuse-run's trajectory on the same faulty data, within 2x of the clean run's error.
+TEST_F(MultiProcess, ImuDropoutAndTimeOutlierGiveTheSingleProcessTrajectory) {
+  const std::string seq = std::string(FUSE_TEST_DATA) + "/seqdir10";
+  ASSERT_TRUE(fs::exists(seq + "/imu.csv")) << "fixture missing: " << seq;
+  using test::Lines;
+  const fs::path faulty = test::faulty_sequence(seq, "multiprocess", [](Lines& imu, Lines&) {
+    const std::size_t from = test::first_after(imu, 1005.03), to = test::first_after(imu, 1005.73);
+    imu.erase(imu.begin() + static_cast<std::ptrdiff_t>(from), imu.begin() + static_cast<std::ptrdiff_t>(to));
+    const std::size_t outlier = test::first_after(imu, 1007.2);
+    imu[outlier] = test::restamp_imu(imu[outlier], 10.0);
+  });
+  const RunSummary single = run_offline(load_runner_config(kConfig), faulty.string(), "");
+  ASSERT_TRUE(single.error.empty()) << single.error;
+  const RunSummary clean = run_offline(load_runner_config(kConfig), seq, "");
+  Pipeline p("time-faults", 70);
+  p.start_backend();
+  p.start("fuse-ingest", faulty.string(), {"--mode", "lockstep"});
+  EXPECT_EQ(p.wait_ingest(kReplayTimeout), 0) << p.log("fuse-ingest", 1);
+  EXPECT_TRUE(p.stop_all());
+  const auto multi = eval::read_tum(p.trajectory());
+  std::size_t common = 0;
+  const double worst = max_difference(single.trajectory, multi, &common);
+  const double ate_single = ate(seq, single.trajectory), ate_multi = ate(seq, multi), ate_clean = ate(seq, clean.trajectory);
+  std::cout << "IMU dropout + time outlier: services ATE " << ate_multi << " m, fuse-run " << ate_single
+            << " m, clean " << ate_clean << " m; largest difference " << worst << " m over " << common << " poses\n";
+  EXPECT_NE(p.log("fuse-state", 1).find("coasted to it"), std::string::npos) << p.log("fuse-state", 1);
+  EXPECT_GE(common + 2, single.trajectory.size());
+  EXPECT_LE(worst, 1e-3);
+  EXPECT_LT(ate_multi, 2.0 * ate_clean);
+  fs::remove_all(faulty);
 }
 
 }  // namespace

@@ -25,6 +25,7 @@
 
 #include "fuse/eval/evaluate.hpp"
 #include "fuse/eval/trajectory.hpp"
+#include "faulty_sequence.hpp"
 #include "run_command.hpp"
 #include "runner.hpp"
 
@@ -32,6 +33,7 @@ namespace fuse {
 namespace {
 
 namespace fs = std::filesystem;
+using namespace fuse::test;
 
 const std::string kSeqdir = std::string(FUSE_TEST_DATA) + "/seqdir10";
 const std::string kConfig = std::string(FUSE_CONFIG_DIR) + "/mid360.yaml";
@@ -40,52 +42,6 @@ constexpr double kAteFactor = 2.0;
 /// Phases of the walk (absolute times of the sequence, which starts at 1000 s and initialises
 /// for about 1 s): the first sample after each is where a fault starts.
 constexpr double kPhases[] = {1003.0, 1005.03, 1007.2};
-
-using Lines = std::vector<std::string>;
-
-Lines read_lines(const fs::path& file) {
-  std::ifstream in(file);
-  Lines lines;
-  for (std::string l; std::getline(in, l);) lines.push_back(l);
-  return lines;
-}
-
-void write_lines(const fs::path& file, const Lines& lines) {
-  std::ofstream out(file, std::ios::trunc);
-  for (const auto& l : lines) out << l << '\n';
-}
-
-/// imu.csv: timestamp in ns, then gyro and accel.
-double imu_time(const std::string& row) { return std::stod(row.substr(0, row.find(','))) * 1e-9; }
-
-std::string restamp_imu(const std::string& row, double dt) {
-  const auto comma = row.find(',');
-  const long long ns = std::stoll(row.substr(0, comma)) + std::llround(dt * 1e9);
-  return std::to_string(ns) + row.substr(comma);
-}
-
-/// Index (in imu.csv, header at 0) of the first sample after time t.
-std::size_t first_after(const Lines& imu, double t) {
-  for (std::size_t i = 1; i < imu.size(); ++i) {
-    if (imu_time(imu[i]) > t) return i;
-  }
-  return imu.size();
-}
-
-/// A copy of the sequence whose imu.csv and scans.csv lines (header first) were edited; raw/ is
-/// linked to the original.
-fs::path faulty_sequence(const std::string& name, const std::function<void(Lines& imu, Lines& scans)>& edit) {
-  const fs::path dir = fs::temp_directory_path() / ("fuse_time_fault_" + std::to_string(::getpid()) + "_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  fs::copy_file(kSeqdir + "/calib.yaml", dir / "calib.yaml");
-  fs::create_directory_symlink(fs::absolute(kSeqdir + "/raw"), dir / "raw");
-  Lines imu = read_lines(kSeqdir + "/imu.csv"), scans = read_lines(kSeqdir + "/scans.csv");
-  edit(imu, scans);
-  write_lines(dir / "imu.csv", imu);
-  write_lines(dir / "scans.csv", scans);
-  return dir;
-}
 
 /// Both clocks step by `step` s from time t on: IMU samples after t, scans starting at or after t.
 void step_clocks(Lines& imu, Lines& scans, double t, double step) {
@@ -135,7 +91,7 @@ FaultRun run_on(const fs::path& dir, const std::vector<std::string>& overrides =
 
 FaultRun run_fault(const std::string& name, const std::function<void(Lines&, Lines&)>& edit,
               const std::vector<std::string>& overrides = {}, double step_at = 0.0, double step = 0.0) {
-  const fs::path dir = faulty_sequence(name, edit);
+  const fs::path dir = faulty_sequence(kSeqdir, name, edit);
   FaultRun r = run_on(dir, overrides, step_at, step);
   fs::remove_all(dir);
   return r;
@@ -341,7 +297,7 @@ TEST_F(FuseRunExitCode, CleanRunIs0) {
 }
 
 TEST_F(FuseRunExitCode, DivergedRunIs3WithTheReason) {
-  const fs::path input = faulty_sequence(test_name(), [](Lines& imu, Lines& scans) { step_clocks(imu, scans, 1005.0, -100.0); });
+  const fs::path input = faulty_sequence(kSeqdir, test_name(), [](Lines& imu, Lines& scans) { step_clocks(imu, scans, 1005.0, -100.0); });
   std::string out;
   const int code = run_cli("--config " + kConfig + " --input " + input.string() + " --out " + (dir_ / "o").string() +
                                " --set estimator.clock.enabled=false",

@@ -206,19 +206,21 @@ bool StateTracker::coast_to(double t) {
   return true;
 }
 
-void StateTracker::widen(double t) {
+void StateTracker::widen(double t) { widen_prior(history_, t, config_); }
+
+void widen_prior(StateHistory& history, double t, const EstimatorConfig& config) {
   // At least the covariance of a gap of unknown length, block by block (position, velocity,
   // rotation): widening an already uncertain prior again would only lose information.
-  const StateQuery q = history_.query(t);
+  const StateQuery q = history.query(t);
   if (!q.ok()) return;
-  const StateCovariance unknown = gap_noise(config_.clock.max_gap_s);
+  const StateCovariance unknown = gap_covariance(config.divergence, config.clock.max_gap_s);
   StateCovariance Q = StateCovariance::Zero();
   for (int idx : {Idx::kPos, Idx::kVel, Idx::kRot}) {
     if (q.P.block<3, 3>(idx, idx).diagonal().maxCoeff() < unknown(idx, idx)) {
       Q.block<3, 3>(idx, idx) = unknown.block<3, 3>(idx, idx);
     }
   }
-  history_.inflate(t, Q);
+  history.inflate(t, Q);
 }
 
 void level_with_accelerometer(const Eigen::Vector3d& f, double sigma, NavState& x, StateCovariance& P) {
@@ -260,8 +262,10 @@ Eigen::Vector3d agreed_rate(const Eigen::Vector3d& w0, const Eigen::Vector3d& w1
   return w;
 }
 
-StateCovariance StateTracker::gap_noise(double dt) const {
-  const double sa = config_.divergence.gap_accel_std, sw = config_.divergence.gap_gyro_std;
+StateCovariance StateTracker::gap_noise(double dt) const { return gap_covariance(config_.divergence, dt); }
+
+StateCovariance gap_covariance(const DivergenceConfig& divergence, double dt) {
+  const double sa = divergence.gap_accel_std, sw = divergence.gap_gyro_std;
   StateCovariance Q = StateCovariance::Zero();
   Q.block<3, 3>(Idx::kPos, Idx::kPos).diagonal().setConstant(std::pow(0.5 * sa * dt * dt, 2));
   Q.block<3, 3>(Idx::kVel, Idx::kVel).diagonal().setConstant(std::pow(sa * dt, 2));

@@ -23,7 +23,7 @@ const std::map<std::string, std::vector<std::string>>& summary_counters() {
        {"recoveries", "recoveries_from_checkpoint", "imu_gap", "relocalizing_episodes", "lost_episodes",
         "correction_too_old", "odometry_deferred_catching_up"}},
       {"fuse-update",
-       {"scans_processed", "scan_before_init", "scans_already_corrected", "scans_dropped_backlog",
+       {"scans_processed", "scan_before_init", "scans_already_corrected", "scans_older_than_state", "scans_dropped_backlog",
         "history_wait_timeout", "history_refused", "recovery_scans", "diverged", "observations_resent",
         "observations_given_up"}},
       {"fuse-map", {"map_observations_applied", "journal_errors", "pending_dropped", "pending_observations"}},

@@ -29,6 +29,15 @@ Eigen::Vector3d agreed_rate(const Eigen::Vector3d& w0, const Eigen::Vector3d& w1
 /// heading is unobservable from it and stays.
 void level_with_accelerometer(const Eigen::Vector3d& f, double sigma, NavState& x, StateCovariance& P);
 
+/// Covariance of the motion nobody measured during a data gap of dt seconds (position, velocity
+/// and rotation blocks from divergence.gap_accel_std and gap_gyro_std).
+StateCovariance gap_covariance(const DivergenceConfig& divergence, double dt);
+
+/// Widens the prior at t (an entry of `history`) to at least the covariance of a gap of unknown
+/// length (estimator.clock.max_gap_s), block by block: a lost track is re-localised from it.
+/// Used by StateTracker::widen and by fuse-update on its slice of history.
+void widen_prior(StateHistory& history, double t, const EstimatorConfig& config);
+
 class StateTracker {
  public:
   /// Something the tracker did that leaves the prior uncertain (for a TrackingMonitor).
