@@ -117,15 +117,12 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
   const double measured_since =
       history.measured_since(scan.t_start, scan.t_end, config_.divergence.max_imu_gap) - scan.t_start;
   std::size_t in_gap = 0;
-  const double min_r2 = config_.preprocess.min_range * config_.preprocess.min_range;
-  const double max_r2 = config_.preprocess.max_range * config_.preprocess.max_range;
   raw_.clear();
   in_range_.clear();
   for (std::uint32_t i = 0; i < scan.points.size(); ++i) {
     const LidarPoint& p = scan.points[i];
     const Eigen::Vector3f v(p.x, p.y, p.z);
-    const double r2 = v.squaredNorm();
-    if (!v.allFinite() || r2 < min_r2 || r2 > max_r2) continue;
+    if (!config_.preprocess.in_range(v)) continue;
     if (p.t_rel < measured_since) {
       ++in_gap;
       continue;

@@ -49,15 +49,12 @@ void ScanBacklog::compact(LidarScan& scan) {
   // of preprocess.voxel_size the point nearest the voxel centre. Running it again on the kept
   // points keeps them (each is nearest its own voxel's centre), so the step sees what it would
   // have kept from the raw scan; only its voxel growth (max_points) then picks among fewer.
-  const double min_r2 = preprocess_.min_range * preprocess_.min_range;
-  const double max_r2 = preprocess_.max_range * preprocess_.max_range;
   xyz_.clear();
   in_range_.clear();
   for (std::uint32_t i = 0; i < scan.points.size(); ++i) {
     const LidarPoint& p = scan.points[i];
     const Eigen::Vector3f v(p.x, p.y, p.z);
-    const double r2 = v.squaredNorm();
-    if (!v.allFinite() || r2 < min_r2 || r2 > max_r2) continue;
+    if (!preprocess_.in_range(v)) continue;
     xyz_.push_back(v);
     in_range_.push_back(i);
   }

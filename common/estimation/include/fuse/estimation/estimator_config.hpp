@@ -36,6 +36,11 @@ struct PreprocessConfig {
   std::size_t max_points = 3000;
   bool deskew = true;        ///< ablation switch
   void load(ConfigNode& node);
+  /// Step 1's range filter: a finite point between min_range and max_range.
+  bool in_range(const Eigen::Vector3f& v) const {
+    const double r2 = v.squaredNorm();
+    return v.allFinite() && r2 >= min_range * min_range && r2 <= max_range * max_range;
+  }
 };
 
 struct InitialCovarianceConfig {
