@@ -358,7 +358,7 @@ Tracking StateService::tracking() {
   std::string why;
   if (!live_) {
     now = Tracking::kRelocalizing;
-    why = "recovering after a restart";
+    why = "starting: waiting for a posterior from fuse-update or the checkpoint before going live";
   } else if (!tracker_.initialised()) {
     if (tracker_.counters().get("init_not_at_rest") > 0) {
       now = Tracking::kLost;
@@ -387,12 +387,14 @@ Tracking StateService::tracking() {
   if (now != tracking_) {
     auto log = logger(kName);
     if (now == Tracking::kTracking) {
-      log->info("tracking again (was {})", to_string(tracking_));
+      log->info("tracking{} (was {})", live_ ? " again" : "", to_string(tracking_));
+    } else if (!live_) {
+      log->info("{}: {}", to_string(now), why);  // every start, not an episode
     } else {
       log->warn("{}: {}", to_string(now), why);
     }
     if (now == Tracking::kLost) counters_.add("lost_episodes");
-    if (now == Tracking::kRelocalizing) counters_.add("relocalizing_episodes");
+    if (now == Tracking::kRelocalizing && live_) counters_.add("relocalizing_episodes");
     tracking_ = now;
   }
   tracking_reason_ = why;

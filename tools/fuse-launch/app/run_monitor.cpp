@@ -51,9 +51,20 @@ RunMonitor::RunMonitor(const service::SystemConfig& config, std::string trajecto
   corrected_ = std::make_unique<transport::Subscriber<fuse_msgs::StateEstimate>>(
       *participant_, transport::topics::kCorrected, [this](const fuse_msgs::StateEstimate&) {
         std::lock_guard<std::mutex> lock(mutex_);
-        if (!have_estimate_) skipped_before_first_estimate_ = total("fuse-update", "scan_before_init");
         have_estimate_ = true;
         last_estimate_ = Clock::now();
+      });
+  // Scans skipped before the first one processed are the static initialisation's, not losses. The
+  // corrections come in order from fuse-update, so this count is exact (a health snapshot of
+  // scan_before_init could be older than the first estimate).
+  corrections_ = std::make_unique<transport::Subscriber<fuse_msgs::Correction>>(
+      *participant_, transport::topics::kCorrection, [this](const fuse_msgs::Correction& c) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (c.result() != fuse_msgs::SCAN_SKIPPED) {
+          first_scan_processed_ = true;
+        } else if (!first_scan_processed_) {
+          ++skipped_before_first_estimate_;
+        }
       });
   status_ = std::make_unique<transport::Subscriber<fuse_msgs::MapStatus>>(
       *participant_, transport::topics::kMapStatus, [this](const fuse_msgs::MapStatus& s) {
@@ -67,6 +78,7 @@ RunMonitor::RunMonitor(const service::SystemConfig& config, std::string trajecto
 
 RunMonitor::~RunMonitor() {
   status_.reset();
+  corrections_.reset();
   corrected_.reset();
   health_.reset();
 }

@@ -75,6 +75,7 @@ class RunMonitor {
   bool have_estimate_ = false;
   Clock::time_point last_estimate_{};
   std::uint64_t skipped_before_first_estimate_ = 0;
+  bool first_scan_processed_ = false;
   std::string state_tracking_;  ///< fuse-state's newest health state
   std::map<std::uint64_t, std::uint64_t> acked_;  ///< session -> highest acknowledged sequence seen
   // Estimate outages while data flows (wall clock).
@@ -86,6 +87,7 @@ class RunMonitor {
   std::unique_ptr<transport::Participant> participant_;
   std::unique_ptr<transport::Subscriber<fuse_msgs::Health>> health_;
   std::unique_ptr<transport::Subscriber<fuse_msgs::StateEstimate>> corrected_;
+  std::unique_ptr<transport::Subscriber<fuse_msgs::Correction>> corrections_;
   std::unique_ptr<transport::Subscriber<fuse_msgs::MapStatus>> status_;
 };
 
