@@ -62,18 +62,51 @@ TEST(TimeGate, NormalStreamPassesEverySampleAtOnce) {
   EXPECT_DOUBLE_EQ(gate.time(), s.back());
 }
 
-TEST(TimeGate, DataGapWithinTheAllowedGapIsAcceptedAtOnce) {
+TEST(TimeGate, ShortDataGapIsAcceptedAtOnce) {
   TimeGateConfig c;
-  c.max_gap_s = 2.0;
+  c.hold_gap_s = 0.5;
   TimeGate gate(c);
   std::vector<double> s = stream(kT0, 10);
-  s.push_back(s.back() + 1.4);  // a 1.4 s gap: coasted by the consumer, not a jump
+  s.push_back(s.back() + 0.4);  // a 0.4 s gap: coasted by the consumer, not held
   s.push_back(s.back() + kDt);
   const Fed f = feed(gate, s);
   ASSERT_EQ(f.all.size(), s.size());
   EXPECT_EQ(f.all[10].verdict, V::kAccept);
   EXPECT_EQ(f.when[10], 10u);
-  EXPECT_NEAR(f.all[10].step, 1.4, 1e-9);
+  EXPECT_NEAR(f.all[10].step, 0.4, 1e-9);
+}
+
+TEST(TimeGate, LongDataGapIsAcceptedOnceTheSamplesAfterItContinueIt) {
+  TimeGateConfig c;
+  c.max_gap_s = 6.0;
+  c.hold_gap_s = 0.5;
+  c.confirm_samples = 2;
+  TimeGate gate(c);
+  std::vector<double> s = stream(kT0, 10);
+  s.push_back(s.back() + 4.9);  // a restarted driver's gap: within G, longer than H
+  for (int i = 0; i < 3; ++i) s.push_back(s.back() + kDt);
+  const Fed f = feed(gate, s);
+  ASSERT_EQ(f.all.size(), s.size());
+  EXPECT_EQ(f.all[10].verdict, V::kAccept) << "a data gap, not a clock step";
+  EXPECT_EQ(f.when[10], 12u) << "held for confirm_samples samples";
+  EXPECT_NEAR(f.all[10].step, 4.9, 1e-9);
+  EXPECT_EQ(f.all[13].verdict, V::kAccept);
+  EXPECT_EQ(f.when[13], 13u);
+  EXPECT_DOUBLE_EQ(gate.time(), s.back());
+}
+
+TEST(TimeGate, IsolatedSampleAFewSecondsAheadIsAnOutlierNotAGap) {
+  TimeGateConfig c;
+  c.max_gap_s = 6.0;
+  c.hold_gap_s = 0.5;
+  TimeGate gate(c);
+  std::vector<double> s = stream(kT0, 10);
+  s.push_back(s.back() + 3.0);  // within G: once taken as a gap, it made 3 s of the stream "out of order"
+  for (int i = 1; i <= 5; ++i) s.push_back(s[9] + i * kDt);
+  const Fed f = feed(gate, s);
+  ASSERT_EQ(f.all.size(), s.size());
+  EXPECT_EQ(f.all[10].verdict, V::kOutlier);
+  for (std::size_t i = 11; i < f.all.size(); ++i) EXPECT_EQ(f.all[i].verdict, V::kAccept) << i;
 }
 
 TEST(TimeGate, DuplicateAndOutOfOrderAreDropped) {
@@ -257,7 +290,7 @@ TEST(TimeGate, VerdictNamesAreTheCounterSuffixes) {
 }
 
 TEST(TimeGateConfig, BadValuesAreRefusedNamingTheKey) {
-  expect_refused_naming_the_key<TimeGateConfig>({"max_gap_s: 0", "confirm_samples: 0", "step_confirm_s: 0", "typo: 1"});
+  expect_refused_naming_the_key<TimeGateConfig>({"max_gap_s: 0", "hold_gap_s: 0", "hold_gap_s: 7", "confirm_samples: 0", "step_confirm_s: 0", "typo: 1"});
 }
 
 }  // namespace

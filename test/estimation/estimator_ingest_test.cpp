@@ -103,9 +103,9 @@ TEST(StateTrackerTime, ConfirmedClockStepContinuesAtTheNewTimeUncertain) {
   EXPECT_EQ(tracker.counters().get("imu_time_outlier"), 0u);
   EXPECT_NEAR(tracker.history().newest().t, step_to + 49 * kImuDt, 1e-9);
   EXPECT_LT((tracker.history().newest().x.p - x_before.p).norm(), 0.01);  // continues from the last state
-  // With the uncertainty of a gap of unknown length (clock.max_gap_s): metres, not millimetres.
+  // With the uncertainty of a gap of unknown length (divergence.unknown_gap_s): metres, not millimetres.
   const double pos_std = std::sqrt(tracker.history().newest().P(Idx::kPos, Idx::kPos));
-  EXPECT_GT(pos_std, 0.5 * 0.5 * config.divergence.gap_accel_std * std::pow(config.clock.max_gap_s, 2));
+  EXPECT_GT(pos_std, 0.5 * 0.5 * config.divergence.gap_accel_std * std::pow(config.divergence.unknown_gap_s, 2));
   const auto events = tracker.take_events();
   ASSERT_EQ(events.size(), 1u);
   EXPECT_EQ(events[0].kind, TrackingEvent::kClockStep);
@@ -177,7 +177,12 @@ double coasted_yaw(const std::function<double(double)>& rate, double gap) {
   for (; t < kInitSamples * kImuDt + 2.0; t += kImuDt) est.ingest(turning_imu(t, rate(t)));
   const double before_t = t - kImuDt;
   const double before = yaw(est.query(before_t).x);
-  est.ingest(turning_imu(before_t + gap, rate(before_t + gap)));
+  // The sample after the gap, and those that confirm it (a gap longer than clock.hold_gap_s waits
+  // for clock.confirm_samples samples continuing it).
+  for (int i = 0; i <= EstimatorConfig{}.clock.confirm_samples; ++i) {
+    const double ti = before_t + gap + i * kImuDt;
+    est.ingest(turning_imu(ti, rate(ti)));
+  }
   EXPECT_EQ(counter(est, "imu_gap"), 1u);
   return yaw(est.query(before_t + gap).x) - before;
 }

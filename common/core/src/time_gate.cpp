@@ -13,8 +13,10 @@ constexpr int kMaxConfirmSamples = 10;
 
 void TimeGateConfig::load(ConfigNode& node) {
   node.get("enabled", enabled).get("max_gap_s", max_gap_s).get("confirm_samples", confirm_samples);
-  node.get("step_confirm_s", step_confirm_s);
+  node.get("step_confirm_s", step_confirm_s).get("hold_gap_s", hold_gap_s);
   node.check(std::isfinite(max_gap_s) && max_gap_s >= 0.1 && max_gap_s <= 3600.0, "max_gap_s", "must be in [0.1, 3600] s");
+  node.check(std::isfinite(hold_gap_s) && hold_gap_s > 0.0 && hold_gap_s < max_gap_s, "hold_gap_s",
+             "must be in (0, max_gap_s) s");
   node.check(confirm_samples >= 1 && confirm_samples <= kMaxConfirmSamples, "confirm_samples",
              "must be in [1, " + std::to_string(kMaxConfirmSamples) + "]");
   node.check(std::isfinite(step_confirm_s) && step_confirm_s > 0.0 && step_confirm_s <= 60.0, "step_confirm_s",
@@ -74,7 +76,9 @@ void TimeGate::confirm(std::vector<Decision>& out) {
 }
 
 void TimeGate::release(std::vector<Decision>& out) {
-  out.push_back({Verdict::kClockStep, held_.front(), held_.front() - time_});
+  // A held step within G was a long data gap; beyond it, a clock step.
+  const double step = held_.front() - time_;
+  out.push_back({std::abs(step) > config_.max_gap_s ? Verdict::kClockStep : Verdict::kAccept, held_.front(), step});
   for (std::size_t i = 1; i < held_.size(); ++i) out.push_back({Verdict::kAccept, held_[i], held_[i] - held_[i - 1]});
   time_ = held_.back();
   held_.clear();
@@ -84,9 +88,11 @@ std::optional<TimeGate::Decision> TimeGate::judge(double t, std::optional<double
   const double d = t - time_;
   if (std::abs(d) <= kSameTime) return Decision{Verdict::kDuplicate, t, d};
   if (!config_.enabled) return Decision{d > 0.0 ? Verdict::kAccept : Verdict::kOutOfOrder, t, d};
-  if (d > 0.0 && d <= config_.max_gap_s) return Decision{Verdict::kAccept, t, d};
+  if (d > 0.0 && (d <= config_.hold_gap_s || (reference && d <= config_.max_gap_s))) {
+    return Decision{Verdict::kAccept, t, d};
+  }
   if (d < 0.0 && d >= -config_.max_gap_s) return Decision{Verdict::kOutOfOrder, t, d};
-  // A jump of more than G, either way.
+  // A long gap (H < d ≤ G, without a reference) or a jump of more than G, either way.
   if (reference) {
     // The other clock decides: it made the same step (a clock step of both), or this one is wrong.
     const bool agrees = std::abs(t - *reference) <= config_.max_gap_s;

@@ -30,6 +30,9 @@ void DivergenceConfig::load(ConfigNode& node) {
   node.get("max_position_std", max_position_std).get("max_scans_without_constraints", max_scans_without_constraints);
   node.get("max_imu_gap", max_imu_gap).get("gap_accel_std", gap_accel_std).get("gap_gyro_std", gap_gyro_std);
   node.get("gap_rate_window", gap_rate_window).get("gap_level", gap_level).get("coast_silent_imu", coast_silent_imu);
+  node.get("unknown_gap_s", unknown_gap_s);
+  node.check(std::isfinite(unknown_gap_s) && unknown_gap_s > 0.0 && unknown_gap_s <= 60.0, "unknown_gap_s",
+             "must be in (0, 60] s");
   node.check(std::isfinite(gap_rate_window) && gap_rate_window >= 0.0 && gap_rate_window <= 10.0, "gap_rate_window",
              "must be in [0, 10] s");
   node.check(std::isfinite(gap_accel_std) && gap_accel_std >= 0.0, "gap_accel_std", "must be finite and >= 0");

@@ -59,7 +59,7 @@ void StateTracker::apply_decisions() {
       case TimeGate::Verdict::kOutlier:
         counters_.count("imu_time_outlier",
                         fmt::format("IMU sample at t={:.6f} jumps {:+.3f} s away from the stream and not the samples "
-                                    "after it (beyond estimator.clock.max_gap_s): dropped",
+                                    "after it (beyond estimator.clock.hold_gap_s, not confirmed): dropped",
                                     d.t, d.step));
         break;
     }
@@ -115,7 +115,7 @@ void StateTracker::step_clock(const ImuSample& imu, double step) {
   counters_.count("imu_clock_step",
                   fmt::format("IMU clock step of {:+.3f} s to t={:.6f} (beyond estimator.clock.max_gap_s = {} s, "
                               "confirmed by the samples after it or by the scans' clock): the state continues at the new time as after a "
-                              "gap of unknown length and is re-localised against the map",
+                              "gap of unknown length (divergence.unknown_gap_s) and is re-localised against the map",
                               step, imu.t, config_.clock.max_gap_s));
   last_imu_t_ = imu.t;
   coasted_ = false;
@@ -125,7 +125,7 @@ void StateTracker::step_clock(const ImuSample& imu, double step) {
     return;
   }
   NavState x = history_.newest().x;
-  StateCovariance P = history_.newest().P + gap_noise(config_.clock.max_gap_s);
+  StateCovariance P = history_.newest().P + gap_noise(config_.divergence.unknown_gap_s);
   if (config_.divergence.gap_level) {
     // As after a data gap: the tilt σ of an unknown gap (σ_ω G ≈ 1 rad) would leave the LiDAR to
     // find roll and pitch too (measured without it: ATE 198 instead of 9 mm after a +100 s step).
@@ -213,7 +213,7 @@ void widen_prior(StateHistory& history, double t, const EstimatorConfig& config)
   // rotation): widening an already uncertain prior again would only lose information.
   const StateQuery q = history.query(t);
   if (!q.ok()) return;
-  const StateCovariance unknown = gap_covariance(config.divergence, config.clock.max_gap_s);
+  const StateCovariance unknown = gap_covariance(config.divergence, config.divergence.unknown_gap_s);
   StateCovariance Q = StateCovariance::Zero();
   for (int idx : {Idx::kPos, Idx::kVel, Idx::kRot}) {
     if (q.P.block<3, 3>(idx, idx).diagonal().maxCoeff() < unknown(idx, idx)) {

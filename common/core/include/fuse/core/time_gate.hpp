@@ -2,10 +2,15 @@
 // against the stream's time (the stamp of the last sample it accepted), so that one bad stamp
 // cannot make the rest of the stream look out of order, and a clock that steps is followed.
 //
-// With G = max_gap_s (the longest data gap that is still coasted across) and d = t − stream time:
+// With G = max_gap_s (the longest data gap that is still coasted across), H = hold_gap_s and
+// d = t − stream time:
 //   |d| ≤ same-time tolerance   duplicate      dropped
-//   0 < d ≤ G                   accept         (a step longer than the sensor period is a data gap:
+//   0 < d ≤ H                   accept         (a step longer than the sensor period is a data gap:
 //                                               the consumer coasts across it as before)
+//   H < d ≤ G                   long gap:      held like a jump until `confirm_samples` samples
+//                                               continue it, then accepted (a data gap); refuted,
+//                                               an outlier (so that one sample stamped seconds ahead
+//                                               cannot make the stream behind it out of order)
 //   −G ≤ d < 0                  out of order   dropped
 //   |d| > G                     jump:          held, with the samples that continue it (each within
 //                                               G after the one before), until they confirm it:
@@ -41,7 +46,10 @@ struct TimeGateConfig {
   /// re-localised); a sample farther from the stream, either way, is a jump. Above the longest
   /// gap the estimator can coast (a 1.4 s gap is re-localised) and far below any plausible clock
   /// step (seconds to hours).
-  double max_gap_s = 2.0;
+  double max_gap_s = 6.0;
+  /// s: H, a forward step longer than this (and at most G) waits for the samples after it before it
+  /// is taken as a data gap: a 10 ms delay at 200 Hz, only at such a step.
+  double hold_gap_s = 0.5;
   /// Samples after a forward jump that must continue it before it is taken as a clock step
   /// (the jump's samples are held meanwhile: a delay of this many samples, only at a jump).
   int confirm_samples = 2;

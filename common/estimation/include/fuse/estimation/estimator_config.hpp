@@ -65,6 +65,9 @@ struct DivergenceConfig {
   /// updates after the gap may pull the state back instead of trusting the coasted prediction.
   double gap_accel_std = 1.0;           ///< σ_a, m/s²
   double gap_gyro_std = 0.5;            ///< σ_ω, rad/s
+  /// s: the gap length whose covariance a prior of unknown age gets (after a clock step, or a lost
+  /// track widened for re-localisation): nothing says how far it moved, only the map can.
+  double unknown_gap_s = 2.0;
   /// s: the gap is coasted at the rotation rate that the mean rate over this window before it and
   /// the first sample after it agree on (StateTracker, agreed_rate); one period of the slowest
   /// oscillation expected (handheld sway, gait) averages it out.

@@ -34,7 +34,7 @@ void level_with_accelerometer(const Eigen::Vector3d& f, double sigma, NavState& 
 StateCovariance gap_covariance(const DivergenceConfig& divergence, double dt);
 
 /// Widens the prior at t (an entry of `history`) to at least the covariance of a gap of unknown
-/// length (estimator.clock.max_gap_s), block by block: a lost track is re-localised from it.
+/// length (estimator.divergence.unknown_gap_s), block by block: a lost track is re-localised from it.
 /// Used by StateTracker::widen and by fuse-update on its slice of history.
 void widen_prior(StateHistory& history, double t, const EstimatorConfig& config);
 
@@ -63,7 +63,7 @@ class StateTracker {
   /// newest (by then LiDAR-corrected) entry. False when not initialised or t is not after it.
   bool coast_to(double t);
   /// Widens the covariance of the entry at t (which must exist) to at least that of a gap of
-  /// unknown length (gap_noise over estimator.clock.max_gap_s), so that the scan there is
+  /// unknown length (gap_noise over estimator.divergence.unknown_gap_s), so that the scan there is
   /// re-localised: a lost track keeps trying.
   void widen(double t);
   /// Another clock (a scan's end t) confirms the jump of the IMU samples the time check holds,
