@@ -429,6 +429,16 @@ void StateService::on_query(const fuse_msgs::QueryRequest& req, fuse_msgs::Query
   if (!have_state) q.status = QueryStatus::kNotInitialised;
   rep.estimate(estimate(q, 0));
   mark(status, rep.estimate());
+  // The answer is the estimate with its status; the message says why it is not one to steer by
+  // (the client turns these statuses into errors).
+  if (q.status == QueryStatus::kTooOld || q.status == QueryStatus::kInFuture) {
+    counters_.add("query_out_of_range");
+    rep.error_message(fmt::format("t={:.6f} is {} the history [{:.6f}, {:.6f}] (sensor clock)", t,
+                                  q.status == QueryStatus::kTooOld ? "before" : "after",
+                                  tracker_.history().oldest_time(), tracker_.history().newest_time()));
+  } else if (status != Tracking::kTracking) {
+    rep.error_message(fmt::format("the estimator is {}: {}", to_string(status), tracking_reason_).substr(0, 255));
+  }
 }
 
 void StateService::on_history(const fuse_msgs::HistoryRequest& req, fuse_msgs::HistoryReply& rep) {

@@ -121,6 +121,19 @@ TEST_F(QueryCli, AnErrorReplyExitsWithThree) {
   EXPECT_TRUE(r.out.empty());
 }
 
+TEST_F(QueryCli, ATimeOutsideTheHistoryOrALostEstimatorIsNotOk) {
+  Run r = query("--time " + std::to_string(qt::kTooOld) + " --json --deadline-ms 10000");
+  EXPECT_EQ(r.code, 3) << r.out << r.err;
+  Json::Value v = parse(r.out);
+  EXPECT_EQ(v["error"].asString(), "out_of_range");
+  EXPECT_EQ(v["status"].asString(), "too_old");  // the answer is there, with its status
+  EXPECT_FALSE(v["message"].asString().empty());
+  r = query("--time " + std::to_string(qt::kLost) + " --deadline-ms 10000");
+  EXPECT_EQ(r.code, 3);
+  EXPECT_NE(r.err.find("not_tracking"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("status: lost"), std::string::npos) << r.err;
+}
+
 TEST_F(QueryCli, AnInvalidTimeIsABadRequestNotSent) {
   for (const char* t : {"nan", "inf", "-1", "1e12"}) {
     const Run r = query(std::string("--json --time ") + t);

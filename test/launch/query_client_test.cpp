@@ -68,20 +68,30 @@ TEST_F(QueryClient, LatestAsksForTheNewestEstimate) {
   expect_known(r.estimate, qt::kLatest);
 }
 
-TEST_F(QueryClient, MapsEveryStatus) {
+TEST_F(QueryClient, MapsEveryStatusAndOnlyATrackedPoseInTheHistoryIsOk) {
   Client client(options(kServerDomain));
-  const std::pair<double, Status> cases[] = {{qt::kCorrected, Status::interpolated},
-                                             {qt::kTooOld, Status::too_old},
-                                             {qt::kInFuture, Status::in_future},
-                                             {qt::kNotInitialised, Status::not_initialised},
-                                             {qt::kRelocalizing, Status::relocalizing},
-                                             {qt::kLost, Status::lost},
-                                             {150.0, Status::interpolated}};
-  for (const auto& [t, status] : cases) {
-    const Result r = client.at(t);
-    ASSERT_EQ(r.error, Error::ok) << "t = " << t << ": " << r.message;
-    EXPECT_EQ(r.estimate.status, status) << "t = " << t << ": " << to_string(r.estimate.status);
-    EXPECT_EQ(r.estimate.t, t);
+  struct Case {
+    double t;
+    Status status;
+    Error error;
+  };
+  const Case cases[] = {{qt::kCorrected, Status::interpolated, Error::ok},
+                        {qt::kTooOld, Status::too_old, Error::out_of_range},
+                        {qt::kInFuture, Status::in_future, Error::out_of_range},
+                        {qt::kNotInitialised, Status::not_initialised, Error::not_ready},
+                        {qt::kRelocalizing, Status::relocalizing, Error::not_tracking},
+                        {qt::kLost, Status::lost, Error::not_tracking},
+                        {150.0, Status::interpolated, Error::ok}};
+  for (const Case& c : cases) {
+    const Result r = client.at(c.t);
+    EXPECT_EQ(r.error, c.error) << "t = " << c.t << ": " << to_string(r.error) << " " << r.message;
+    EXPECT_EQ(r.ok(), c.error == Error::ok) << "t = " << c.t;
+    if (!r.ok()) {
+      EXPECT_FALSE(r.message.empty()) << "t = " << c.t << ": an error says why";
+    }
+    if (c.error == Error::not_ready) continue;
+    EXPECT_EQ(r.estimate.status, c.status) << "t = " << c.t << ": " << to_string(r.estimate.status);
+    EXPECT_EQ(r.estimate.t, c.t);
   }
 }
 
@@ -213,6 +223,8 @@ TEST(QueryClientAlone, ItsTransportThreadsRunWithTheRequestedSlice) {
 
 TEST(QueryClientAlone, NamesErrorsAndStatuses) {
   EXPECT_STREQ(to_string(Error::ok), "ok");
+  EXPECT_STREQ(to_string(Error::out_of_range), "out_of_range");
+  EXPECT_STREQ(to_string(Error::not_tracking), "not_tracking");
   EXPECT_STREQ(to_string(Error::bad_request), "bad_request");
   EXPECT_STREQ(to_string(Error::not_ready), "not_ready");
   EXPECT_STREQ(to_string(Error::unavailable), "unavailable");

@@ -3,7 +3,8 @@
 //   fuse-query [--time T | --latest] [--json] [--deadline-ms N] [--config FILE] [--set key=value]...
 //
 // Prints the pose, velocity, covariance diagonals, time and status (or one JSON object).
-// Exit codes: 0 answered (any status), 2 usage or config, 3 error reply, 4 unavailable.
+// Exit codes: 0 a pose to steer by, 2 usage or config, 3 error reply (out of range, not tracking,
+// not ready, ...), 4 unavailable.
 #include <iostream>
 #include <string>
 #include <vector>
@@ -31,6 +32,9 @@ void print(const fuse::query::Result& result, bool json) {
     std::cout << fuse::query_tool::format_text(result);
   } else {
     std::cerr << "fuse-query: " << fuse::query::to_string(result.error) << ": " << result.message << "\n";
+    if (result.error == fuse::query::Error::out_of_range || result.error == fuse::query::Error::not_tracking) {
+      std::cerr << fuse::query_tool::format_text(result);  // the best guess, with its status
+    }
   }
 }
 }  // namespace

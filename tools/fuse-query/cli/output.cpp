@@ -67,7 +67,9 @@ std::string format_text(const query::Result& r) {
 
 std::string format_json(const query::Result& r) {
   std::string s = "{\"error\":" + json_string(query::to_string(r.error)) + ",\"message\":" + json_string(r.message);
-  if (r.ok()) {
+  // The estimate is there when it was answered (ok), and as the best guess with its status when
+  // it is not one to steer by.
+  if (r.ok() || r.error == query::Error::out_of_range || r.error == query::Error::not_tracking) {
     const query::Estimate& e = r.estimate;
     s += ",\"t\":" + json_number(e.t) + ",\"status\":" + json_string(query::to_string(e.status)) +
          ",\"position\":" + json_list(e.position) + ",\"orientation_xyzw\":" + json_list(e.orientation_xyzw) +

@@ -127,6 +127,8 @@ const char* to_string(Error error) {
     case Error::not_ready: return "not_ready";
     case Error::unavailable: return "unavailable";
     case Error::internal: return "internal";
+    case Error::out_of_range: return "out_of_range";
+    case Error::not_tracking: return "not_tracking";
   }
   return "unknown";
 }

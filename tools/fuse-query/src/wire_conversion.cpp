@@ -1,6 +1,15 @@
 #include "wire_conversion.hpp"
 
+#include <cmath>
+
 namespace fuse::query {
+
+namespace {
+/// A quaternion farther than this from unit norm was not a rotation on the server.
+constexpr double kUnitTolerance = 1e-6;
+/// Closer than this to unit norm is rounding: left exactly as sent.
+constexpr double kRoundingTolerance = 1e-12;
+}  // namespace
 
 Error to_error(fuse_msgs::RpcStatus status) {
   switch (status) {
@@ -47,7 +56,42 @@ Result to_result(fuse_msgs::RpcStatus status, const std::string& message, const 
   Result r;
   r.error = to_error(status);
   r.message = message;
-  if (r.error == Error::ok) r.estimate = to_estimate(reply.estimate());
+  if (r.error != Error::ok) return r;
+  r.estimate = to_estimate(reply.estimate());
+  // The server answered; whether the answer is a pose to steer by is the status's to say.
+  switch (r.estimate.status) {
+    case Status::interpolated:
+    case Status::propagated: break;
+    case Status::too_old:
+    case Status::in_future:
+      r.error = Error::out_of_range;
+      if (r.message.empty()) {
+        r.message = std::string("t is ") +
+                    (r.estimate.status == Status::too_old ? "older than the history" : "newer than the latest IMU sample");
+      }
+      return r;
+    case Status::relocalizing:
+    case Status::lost:
+      r.error = Error::not_tracking;
+      if (r.message.empty()) r.message = std::string("the estimator is ") + to_string(r.estimate.status);
+      return r;
+    case Status::not_initialised:
+      r.error = Error::not_ready;
+      if (r.message.empty()) r.message = "the estimator is not initialised";
+      return r;
+  }
+  // A pose to steer by has a unit quaternion (normalised against rounding on the wire).
+  auto& q = r.estimate.orientation_xyzw;
+  const double n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  if (!std::isfinite(n) || std::abs(n - 1.0) > kUnitTolerance) {
+    r.error = Error::internal;
+    r.message = "the server's orientation is not a unit quaternion (norm " + std::to_string(n) + ")";
+    return r;
+  }
+  if (std::abs(n - 1.0) > kRoundingTolerance) {
+    for (double& c : q) c /= n;
+  }
+  r.message.clear();
   return r;
 }
 

@@ -12,7 +12,8 @@ Error to_error(fuse_msgs::RpcStatus status);
 Status to_status(fuse_msgs::EstimateStatus status);
 Estimate to_estimate(const fuse_msgs::StateEstimate& msg);
 
-/// The result of one call: the RPC status and message, and the estimate when the call succeeded.
+/// The result of one call: the RPC status and message, and the estimate when the call succeeded;
+/// an answer outside the history, or while the estimator does not track, is not Error::ok.
 Result to_result(fuse_msgs::RpcStatus status, const std::string& message, const fuse_msgs::QueryReply& reply);
 
 }  // namespace fuse::query

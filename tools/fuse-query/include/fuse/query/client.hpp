@@ -7,7 +7,11 @@
 //   fuse::query::Client client(options);
 //   client.wait_for_server(2000);
 //   const fuse::query::Result r = client.at(t);
-//   if (r.error == fuse::query::Error::ok) use(r.estimate.position, r.estimate.status);
+//   if (r.ok()) {
+//     steer_by(r.estimate.position, r.estimate.orientation_xyzw);  // tracking, t in the history
+//   } else {
+//     hold(r.error, r.message);  // e.g. out_of_range "t=... is before the history [a, b]"
+//   }
 #pragma once
 
 #include <array>
@@ -42,12 +46,21 @@ struct ClientOptions {
   int scheduler_slice_us = 100;
 };
 
+/// Only `ok` means: a pose to steer by (the estimator tracks, t lies in its history, the
+/// orientation is a unit quaternion). Every other value has a message saying why; for
+/// `out_of_range` and `not_tracking` the estimate is filled too (status, and the best guess).
 enum class Error {
   ok,
-  bad_request,  ///< the request is invalid (non-finite, negative or absurd time); not sent
-  not_ready,    ///< valid, but the estimator cannot answer yet
-  unavailable,  ///< no reply before the deadline (no server, or it is busy)
-  internal,     ///< the server failed while answering
+  bad_request,   ///< the request is invalid (non-finite, negative or absurd time); not sent
+  not_ready,     ///< valid, but the estimator cannot answer yet (not initialised, IMU not there)
+  unavailable,   ///< no reply before the deadline (no server, or it is busy)
+  internal,      ///< the server failed while answering, or its reply was not a valid estimate
+  /// t lies outside the history (status too_old or in_future); the message names the covered
+  /// interval. Ask again for a time inside it.
+  out_of_range,
+  /// The estimator is relocalizing or lost (status says which; message why): the pose in the
+  /// estimate is its best guess, not one to steer by.
+  not_tracking,
 };
 
 enum class Status {
@@ -80,7 +93,7 @@ struct Estimate {
 struct Result {
   Error error = Error::unavailable;
   std::string message;  ///< why, when error != ok
-  Estimate estimate;    ///< meaningful when error == ok
+  Estimate estimate;    ///< meaningful when ok(); status and best guess for out_of_range, not_tracking
   bool ok() const { return error == Error::ok; }
 };
 
