@@ -264,8 +264,10 @@ void StateService::restore_from(const Posterior& post, const std::string& source
   }
   if (!have_held) {
     counters_.count("recovery_without_imu", "no buffered IMU before the recovered posterior: holding zero rates");
-    held.gyro.setZero();
-    held.accel = -post.x.R.transpose() * post.x.g;
+    // What the IMU measures at rest in the posterior's attitude, biases included (a zero gyro
+    // reading would be a rotation of -b_g, coasted across any gap that follows).
+    held.gyro = post.x.bg;
+    held.accel = -post.x.R.transpose() * post.x.g + post.x.ba;
   }
   tracker_.restore(post.t, post.x, post.P, held);
   std::size_t replayed = 0;

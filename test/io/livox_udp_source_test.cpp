@@ -154,7 +154,7 @@ TEST(LivoxUdpSource, FullQueueIsCountedNotSilent) {
   UdpSender sender;
   constexpr int kSent = 20;
   for (int i = 0; i < kSent; ++i) {
-    sender.send(source.imu_port(), tp::packet(0, 1, 0, 1'000'000'000ull * (i + 1), tp::imu_data(0, 0, 0, 0, 0, 1)));
+    sender.send(source.imu_port(), tp::packet(0, 1, 0, 5'000'000ull * (i + 1), tp::imu_data(0, 0, 0, 0, 0, 1)));
   }
   ASSERT_TRUE(wait_packets(source, kSent));
   std::this_thread::sleep_for(100ms);  // handled before anything is taken out
