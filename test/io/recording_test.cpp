@@ -228,6 +228,25 @@ TEST(McapSource, TiesPutImuFirst) {
   EXPECT_EQ(kinds, (std::vector<K>{K::kImu, K::kImu, K::kLidar, K::kImu}));
 }
 
+// The count a progress percentage divides by: the IMU and LiDAR messages of the statistics.
+TEST(McapSource, ExpectedEventsAreTheSensorMessagesOfTheStatistics) {
+  TempDir dir;
+  const std::string path = dir.file("count.mcap");
+  {
+    RecordingWriter w(path);
+    for (int i = 0; i < 30; ++i) w.write(make_imu(1.0 + 0.005 * i, i));
+    w.write(make_scan(1.0, 1.1, 0, 10));
+    w.write(make_scan(1.1, 1.2, 1, 10));
+  }
+  auto source = open_sensor_source(path);
+  ASSERT_TRUE(source->expected_events().has_value());
+  EXPECT_EQ(*source->expected_events(), 32u);
+  std::uint64_t n = 0;
+  SensorEvent e;
+  while (source->next(e)) ++n;
+  EXPECT_EQ(n, *source->expected_events());
+}
+
 // seek(t) continues with the first event at or after t, as reading and dropping everything
 // before it would, and reads only the chunks from there (a restarted real-time replay).
 TEST(McapSource, SeekContinuesAtTheFirstEventFromThatTime) {

@@ -72,6 +72,18 @@ std::string McapSource::describe() const {
   return text;
 }
 
+std::optional<std::uint64_t> McapSource::expected_events() const {
+  // Every message on the IMU and LiDAR channels, from the statistics' per-channel counts.
+  const auto& stats = reader_.statistics();
+  if (!stats) return std::nullopt;
+  std::uint64_t n = 0;
+  for (const auto& [channel, count] : stats->channel_message_counts) {
+    const auto c = reader_.channels().find(channel);
+    if (c != reader_.channels().end() && (c->second.topic == kImuTopic || c->second.topic == kLidarTopic)) n += count;
+  }
+  return n > 0 ? std::optional<std::uint64_t>(n) : std::nullopt;
+}
+
 std::optional<SensorEvent> McapSource::decode(const McapMessage& m) {
   const bool imu = m.channel->topic == kImuTopic, scan = m.channel->topic == kLidarTopic;
   if (!imu && !scan) {

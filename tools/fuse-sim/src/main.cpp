@@ -32,8 +32,8 @@ int main(int argc, char** argv) {
   try {
     const fuse::sim::SimSummary s = fuse::sim::run_simulation(cmd.options);
     std::cout << "scans " << s.scans << ", imu samples " << s.imu_samples << ", points " << s.points
-              << ", duration " << s.duration_s << " s, path length " << s.path_length_m << " m, wall time "
-              << s.wall_time_s << " s\n";
+              << ", duration " << s.duration_s << " s, travelled " << s.travelled_m << " m of the scenario's "
+              << s.path_length_m << " m path, wall time " << s.wall_time_s << " s\n";
   } catch (const std::exception& e) {
     fuse::logger("sim")->error("{}", e.what());
     return 1;

@@ -238,6 +238,7 @@ SimSummary run_simulation(const SimOptions& o) {
   summary.points = points;
   summary.duration_s = duration;
   summary.path_length_m = path_length;
+  summary.travelled_m = travelled;
   summary.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   log->info("done: {} scans ({:.0f} points/scan), {} IMU samples, travelled {:.2f} m, in {:.1f} s", n_scans,
             static_cast<double>(points) / static_cast<double>(n_scans), n_imu, travelled, summary.wall_time_s);

@@ -23,6 +23,7 @@ class McapSource : public SensorSource {
   std::string describe() const override;
   /// Restarts the reader at log time t: chunks that end before t are not read.
   bool seek(double t) override;
+  std::optional<std::uint64_t> expected_events() const override;
 
  private:
   /// Reads every message sharing the next log time, decoded, IMU before scans.

@@ -55,6 +55,9 @@ class SensorSource {
     (void)t;
     return false;
   }
+  /// How many IMU samples and scans the input holds, when it says so without reading it all (an
+  /// MCAP file's statistics): for a progress percentage. Unset when unknown.
+  virtual std::optional<std::uint64_t> expected_events() const { return std::nullopt; }
 };
 
 /// Opens an MCAP recording (a file) or a sequence directory (a folder), by what the path is;

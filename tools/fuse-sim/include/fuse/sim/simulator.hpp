@@ -25,7 +25,8 @@ struct SimOptions {
 struct SimSummary {
   std::size_t scans = 0, imu_samples = 0, points = 0;
   double duration_s = 0.0;
-  double path_length_m = 0.0;
+  double path_length_m = 0.0;  ///< the whole scenario's path (all laps)
+  double travelled_m = 0.0;    ///< what this run walked of it (less with --duration)
   double wall_time_s = 0.0;
 };
 
