@@ -145,6 +145,8 @@ TEST(MapExport, BadArgumentsAndUnreadableMapsExitWithTwo) {
       "--snapshot " + quoted(dir / "junk.snapshot") + " --format pcd --out " + out,
       "--map " + quoted(dir / "absent") + " --format pcd --out " + out,
       "--map " + quoted(dir.path()) + " --format pcd --out " + out,  // a directory without a map
+      "--snapshot " + quoted(dir / "junk.snapshot") + " --format ply --out " + out,  // disagrees with .pcd
+      "--snapshot " + quoted(dir / "junk.snapshot") + " --out " + quoted(dir / "x.xyz"),  // no format at all
   };
   for (const std::string& args : cases) {
     const ToolRun run = run_export(args);
@@ -152,7 +154,47 @@ TEST(MapExport, BadArgumentsAndUnreadableMapsExitWithTwo) {
     EXPECT_NE(run.out.find("fuse-map-export: "), std::string::npos) << args << "\n" << run.out;
   }
   EXPECT_FALSE(std::filesystem::exists(dir / "x.pcd"));
-  EXPECT_EQ(run_export("--help").exit_code, 0);
+  const ToolRun help = run_export("--help");
+  EXPECT_EQ(help.exit_code, 0);
+  EXPECT_NE(help.out.find("world"), std::string::npos) << "--help names the frame\n" << help.out;
+}
+
+// The format is the extension's, either case; the header names the frame the points are in.
+TEST(MapExport, FormatFromTheExtensionAndTheFrameInTheHeader) {
+  TempDir dir;
+  MapServerConfig config;
+  config.directory = (dir / "map").string();
+  MapServerCore core(config);
+  for (std::uint64_t s = 1; s <= 2; ++s) core.apply(7, s, 0.0, scan(s));
+  const auto snapshot = core.save(dir / "saved.snapshot");
+  for (const char* name : {"a.pcd", "b.PLY"}) {
+    const auto out = dir / name;
+    const ToolRun run = run_export("--snapshot " + quoted(snapshot) + " --out " + quoted(out));
+    ASSERT_EQ(run.exit_code, 0) << name << "\n" << run.out;
+    pcl::PointCloud<pcl::PointXYZ> cloud;
+    const bool pcd = std::string(name).find(".pcd") != std::string::npos;
+    ASSERT_EQ(pcd ? pcl::io::loadPCDFile(out.string(), cloud) : pcl::io::loadPLYFile(out.string(), cloud), 0) << name;
+    EXPECT_EQ(sorted_points(cloud), sorted_points(core.map())) << name;
+    std::ifstream in(out, std::ios::binary);
+    std::string header(400, '\0');
+    in.read(header.data(), static_cast<std::streamsize>(header.size()));
+    EXPECT_NE(header.find("frame: world"), std::string::npos) << name;
+  }
+}
+
+// A folder that does not exist: the error names the path, and nothing is left behind.
+TEST(MapExport, AnUnwritableOutputNamesThePath) {
+  TempDir dir;
+  MapServerConfig config;
+  config.directory = (dir / "map").string();
+  MapServerCore core(config);
+  core.apply(7, 1, 0.0, scan(1));
+  const auto snapshot = core.save(dir / "saved.snapshot");
+  const auto out = dir / "missing-folder" / "map.pcd";
+  const ToolRun run = run_export("--snapshot " + quoted(snapshot) + " --out " + quoted(out));
+  EXPECT_EQ(run.exit_code, 2) << run.out;
+  EXPECT_NE(run.out.find((dir / "missing-folder").string()), std::string::npos) << run.out;
+  EXPECT_FALSE(std::filesystem::exists(dir / "missing-folder"));
 }
 
 }  // namespace

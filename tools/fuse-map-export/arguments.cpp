@@ -1,6 +1,9 @@
 // Command-line parsing of fuse-map-export: every argument is checked before any file is read.
 #include "arguments.hpp"
 
+#include <cctype>
+#include <filesystem>
+
 namespace fuse::map_export {
 namespace {
 
@@ -12,12 +15,23 @@ const std::string& value_of(const std::vector<std::string>& args, std::size_t& i
 
 }  // namespace
 
+std::optional<CloudFormat> format_of_extension(const std::string& file) {
+  std::string ext = std::filesystem::path(file).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext == ".pcd") return CloudFormat::kPcd;
+  if (ext == ".ply") return CloudFormat::kPly;
+  return std::nullopt;
+}
+
 std::string usage() {
-  return "usage: fuse-map-export (--map DIR | --snapshot FILE) --format pcd|ply --out FILE [--config FILE]\n"
+  return "usage: fuse-map-export (--map DIR | --snapshot FILE) --out FILE.pcd|FILE.ply [--format pcd|ply]\n"
+         "                       [--config FILE]\n"
          "  --map DIR        a map directory: its snapshot plus the journal replayed on top (read only)\n"
          "  --snapshot FILE  one snapshot file (as written by fuse-map's save)\n"
-         "  --format F       pcd (binary PCD) or ply (binary PLY)\n"
-         "  --out FILE       the point cloud to write (x y z, world frame)\n"
+         "  --out FILE       the point cloud to write: x y z in metres in the map's `world` frame (the\n"
+         "                   frame of fuse-state's poses, T_world_imu); the format is the extension's\n"
+         "                   (.pcd binary PCD, .ply binary PLY), and the file's header names the frame\n"
+         "  --format F       pcd or ply: only for a name without either extension (must agree otherwise)\n"
          "  --config FILE    YAML whose map_server section gives the policy and index the journal is\n"
          "                   replayed with (default: the snapshot's min_point_distance, default index)\n"
          "Prints the number of points written. Problems found in the map files are reported on stderr\n"
@@ -56,8 +70,15 @@ Arguments parse_arguments(const std::vector<std::string>& args) {
   }
   if (a.help) return a;
   if (a.map_dir.empty() == a.snapshot_file.empty()) throw ArgumentError("give exactly one of --map and --snapshot");
-  if (!have_format) throw ArgumentError("--format is required");
   if (a.out.empty()) throw ArgumentError("--out is required");
+  const std::optional<CloudFormat> by_name = format_of_extension(a.out);
+  if (by_name && have_format && *by_name != a.format) {
+    throw ArgumentError("--format disagrees with the extension of --out '" + a.out + "'");
+  }
+  if (!by_name && !have_format) {
+    throw ArgumentError("--out '" + a.out + "' has neither a .pcd nor a .ply extension: give --format");
+  }
+  if (by_name) a.format = *by_name;
   if (!a.config_file.empty() && a.map_dir.empty()) throw ArgumentError("--config only applies to --map");
   return a;
 }

@@ -1,6 +1,7 @@
 // Command line of fuse-map-export.
 #pragma once
 
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -26,6 +27,9 @@ struct Arguments {
 
 /// Parses argv[1..]; throws ArgumentError naming the offending argument.
 Arguments parse_arguments(const std::vector<std::string>& args);
+
+/// The format a file name's extension names (.pcd, .ply, any case); unset for another.
+std::optional<CloudFormat> format_of_extension(const std::string& file);
 
 /// The --help text.
 std::string usage();
