@@ -128,6 +128,30 @@ std::map<std::string, std::uint64_t> verified_counts(const std::string& path, st
   return counts;
 }
 
+/// Every message's log time against the span of the IMU samples' own times (ns): the recording's
+/// one time base is the sensor clock, so health and status sent before the data are logged
+/// within the run too, never at 0 (1970).
+void expect_log_times_within_the_run(const std::string& path) {
+  io::McapReader reader(path);
+  reader.start();
+  io::McapMessage m;
+  std::uint64_t first_log = ~0ull, last_log = 0, first_imu = ~0ull, last_imu = 0;
+  std::string first_topic;
+  while (reader.next(m)) {
+    if (m.header.log_time < first_log) first_topic = m.channel->topic;
+    first_log = std::min(first_log, m.header.log_time);
+    last_log = std::max(last_log, m.header.log_time);
+    if (m.channel->topic == transport::topics::kImu) {
+      first_imu = std::min(first_imu, m.header.log_time);
+      last_imu = std::max(last_imu, m.header.log_time);
+    }
+  }
+  constexpr std::uint64_t kSlackNs = 60'000'000'000ull;  // start-up before the data, shut-down after it
+  ASSERT_LE(first_imu, last_imu) << path << ": no IMU samples";
+  EXPECT_GE(first_log + kSlackNs, first_imu) << path << ": '" << first_topic << "' logged at " << first_log << " ns";
+  EXPECT_LE(last_log, last_imu + kSlackNs) << path;
+}
+
 /// The recording's files in name order (PREFIX_000.mcap, PREFIX_001.mcap, ...).
 std::vector<std::string> mcap_files(const std::string& dir) {
   std::vector<std::string> files;
@@ -276,6 +300,7 @@ TEST(RecordReplay, RecordedLockstepPipelineReplaysToTheSameTrajectory) {
   const auto counts = verified_counts(files[0]);
   EXPECT_GT(counts.count(transport::topics::kCorrection), 0u) << "the pipeline's own topics are recorded too";
   EXPECT_GT(counts.count(transport::topics::kHealth), 0u);
+  expect_log_times_within_the_run(files[0]);
   EXPECT_EQ(summary.topics.at("imu").messages, original.first);
   EXPECT_EQ(summary.topics.at("lidar/scan").messages, original.second);
 

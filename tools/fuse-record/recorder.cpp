@@ -38,6 +38,31 @@ Recorder::~Recorder() {
   }
 }
 
+namespace {
+/// Samples without a sensor time held until the first one with it (health and status of a few
+/// minutes; more are logged on the host clock).
+constexpr std::size_t kMaxHeldBeforeSensorTime = 10000;
+
+std::uint64_t ns_between(std::chrono::steady_clock::time_point a, std::chrono::steady_clock::time_point b) {
+  const auto d = std::chrono::duration_cast<std::chrono::nanoseconds>(b - a).count();
+  return d > 0 ? static_cast<std::uint64_t>(d) : 0;
+}
+
+/// t less the host time d (not below 0).
+std::uint64_t before(std::uint64_t t, std::chrono::steady_clock::duration d) {
+  const auto ns = std::max<std::int64_t>(0, std::chrono::duration_cast<std::chrono::nanoseconds>(d).count());
+  return static_cast<std::uint64_t>(ns) < t ? t - static_cast<std::uint64_t>(ns) : 0;
+}
+
+/// The host's UTC time (ns) at a steady-clock instant in the past.
+std::uint64_t host_realtime_ns(std::chrono::steady_clock::time_point at) {
+  const auto now_real = std::chrono::system_clock::now();
+  const auto ago = std::chrono::steady_clock::now() - at;
+  const auto real = now_real - std::chrono::duration_cast<std::chrono::system_clock::duration>(ago);
+  return static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(real.time_since_epoch()).count());
+}
+}  // namespace
+
 void Recorder::on_sample(std::size_t topic, const std::uint8_t* data, std::size_t size) {
   Counters& c = *counters_[topic];
   ++c.received;
@@ -60,11 +85,33 @@ void Recorder::write(const QueuedSample& s) {
     }
     return;
   }
-  std::uint64_t log_time = clock_ns_;
-  if (check.sensor_time) {
-    log_time = io::seconds_to_ns(*check.sensor_time);  // checked representable by the catalog
-    clock_ns_ = std::max(clock_ns_, log_time);
+  // A stamp of 0 is a message that has no time yet (an estimate before initialisation).
+  if (check.sensor_time && *check.sensor_time > 0.0) {
+    const std::uint64_t t = io::seconds_to_ns(*check.sensor_time);  // checked representable by the catalog
+    if (!anchor_) {
+      for (const QueuedSample& held : before_anchor_) put(held, before(t, s.received - held.received));
+      before_anchor_.clear();
+    }
+    // A sensor stamp behind the newest (another sensor's clock, a replayed burst) is logged as
+    // stamped; the anchor only moves forward.
+    if (!anchor_ || t >= anchor_->first) anchor_ = std::make_pair(t, s.received);
+    put(s, t);
+    return;
   }
+  if (!anchor_) {
+    // Nothing on the sensor clock yet (health and status come before the data): held, bounded.
+    if (before_anchor_.size() < kMaxHeldBeforeSensorTime) {
+      before_anchor_.push_back(s);
+      return;
+    }
+    put(s, host_realtime_ns(s.received));
+    return;
+  }
+  put(s, anchor_->first + ns_between(anchor_->second, s.received));
+}
+
+void Recorder::put(const QueuedSample& s, std::uint64_t log_time) {
+  Counters& c = *counters_[s.topic];
   {
     std::lock_guard<std::mutex> lock(mutex_);
     writer_.write(s.topic, log_time, s.data.data(), s.data.size());
@@ -98,6 +145,15 @@ void Recorder::stop() {
   readers_.clear();  // no callback runs after this
   stopping_ = true;
   if (thread_.joinable()) thread_.join();
+  // No sensor time came at all: what was held is logged on the host's clock (UTC).
+  try {
+    for (const QueuedSample& held : before_anchor_) put(held, host_realtime_ns(held.received));
+  } catch (const std::exception& e) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    error_ = e.what();
+    failed_ = true;
+  }
+  before_anchor_.clear();
   std::lock_guard<std::mutex> lock(mutex_);
   writer_.close();
 }

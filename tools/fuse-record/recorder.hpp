@@ -7,6 +7,7 @@
 #pragma once
 
 #include <atomic>
+#include <optional>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -53,12 +54,20 @@ class Recorder {
   void on_sample(std::size_t topic, const std::uint8_t* data, std::size_t size);
   void run();
   void write(const QueuedSample& s);
+  /// Writes a checked sample at log_time (ns) and counts it.
+  void put(const QueuedSample& s, std::uint64_t log_time);
 
   std::vector<const TopicType*> topics_;
   std::vector<std::unique_ptr<Counters>> counters_;
   SampleQueue queue_;
   RotatingWriter writer_;
-  std::uint64_t clock_ns_ = 0;  ///< newest sensor time written (writer thread only)
+  /// The log time base is the sensor clock. The newest sensor-stamped sample: its time (ns) and
+  /// when it was received; a sample without a sensor time is logged at that time plus the host
+  /// time elapsed since (writer thread only).
+  std::optional<std::pair<std::uint64_t, std::chrono::steady_clock::time_point>> anchor_;
+  /// Samples without a sensor time received before the first with one: logged, when it comes,
+  /// at its time less how much earlier they were received (writer thread only).
+  std::vector<QueuedSample> before_anchor_;
   std::atomic<bool> stopping_{false}, failed_{false};
   mutable std::mutex mutex_;  ///< guards error_ and writer_'s file list
   std::string error_;

@@ -9,7 +9,7 @@ bool SampleQueue::push(std::size_t topic, const std::uint8_t* data, std::size_t 
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (bytes_ + cost > capacity_) return false;
-    items_.push_back(QueuedSample{topic, std::vector<std::uint8_t>(data, data + size)});
+    items_.push_back(QueuedSample{topic, std::vector<std::uint8_t>(data, data + size), std::chrono::steady_clock::now()});
     bytes_ += cost;
     peak_ = std::max(peak_, bytes_);
   }

@@ -17,6 +17,7 @@ namespace fuse::record {
 struct QueuedSample {
   std::size_t topic = 0;  ///< index into the recorded topics
   std::vector<std::uint8_t> data;
+  std::chrono::steady_clock::time_point received;  ///< when the reader handed it over
 };
 
 class SampleQueue {
