@@ -12,7 +12,8 @@
 #                the map disk, a tmpfs: needs root; 0 skips the disk faults), CHECK=1 (exit 1
 #                unless the figures meet the issue's bounds: poses >= 95 % of scans, no
 #                acknowledged observation missing, ATE <= 1.5x the run without kills + 1 cm,
-#                fuse-launch non-zero when something was lost)
+#                fuse-launch non-zero when something was lost and not failed, the whole
+#                recording replayed)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 MODE=${1:-long}

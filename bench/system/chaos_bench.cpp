@@ -26,8 +26,9 @@
 //    the run without kills, answers with a pose, RSS of each service at start and end, and
 //    fuse-launch's exit code and named losses.
 // --check: exit 1 unless poses >= 95 % of the scans, 0 acknowledged observations missing,
-// ATE <= 1.5 x the run without kills (+ 1 cm), and fuse-launch's exit code non-zero when a loss
-// was injected (journal errors of a disk fault) or measured here.
+// ATE <= 1.5 x the run without kills (+ 1 cm), fuse-launch's exit code non-zero when a loss
+// was injected (journal errors of a disk fault) or measured here, and 0 or 3 (not a failed run),
+// and the whole recording replayed (poses within 5 % of the run without kills).
 #include <sys/mount.h>
 #include <sys/statvfs.h>
 #include <unistd.h>
@@ -479,6 +480,18 @@ int main(int argc, char** argv) {
   // measured here. It may call other things losses (an estimate outage over 5 s): reported above.
   const bool measured_loss = missing > 0 || static_cast<double>(poses) < 0.95 * static_cast<double>(replayed);
   if ((disk_fault || measured_loss) && launch_code == 0) failed.push_back("fuse-launch exited 0 although something was lost");
+  // 0 or 3 (a loss named): anything else is a run that did not go through.
+  if (launch_code != 0 && launch_code != 3) failed.push_back("fuse-launch failed (exit code " + std::to_string(launch_code) + ")");
+  // The whole recording was replayed: as many poses as the run without kills wrote, within 5 %.
+  std::size_t ref_poses = 0;
+  {
+    std::ifstream ref(ref_dir + "/trajectory.tum");
+    for (std::string line; std::getline(ref, line);) ref_poses += (!line.empty() && line[0] != '#') ? 1 : 0;
+  }
+  if (static_cast<double>(poses) < 0.95 * static_cast<double>(ref_poses)) {
+    failed.push_back("the replay stopped early: " + std::to_string(poses) + " poses against " + std::to_string(ref_poses) +
+                     " without kills");
+  }
   for (const std::string& f : failed) std::cout << "CHECK FAILED: " << f << "\n";
   return failed.empty() ? 0 : 1;
 }
