@@ -147,6 +147,9 @@ void McapReader::read_summary() {
     }
   }
   std::vector<mcap::MetadataIndex> metadata_indexes;
+  // Spec: the summary may repeat Channel records without their Schema records (those are then
+  // only in the data section). Such channels are registered once the data section's are read.
+  std::vector<std::pair<mcap::Channel, std::string>> channels_without_schema;
   ByteReader r(bytes.data(), bytes.size(), where + at(start));
   while (!r.done()) {
     const std::uint64_t pos = start + r.position();
@@ -154,7 +157,15 @@ void McapReader::read_summary() {
     ByteReader rec = r.sub(r.u64(), "record content").rest(where + ": " + mcap::op_name(op) + " record" + at(pos));
     switch (static_cast<Op>(op)) {
       case Op::kSchema: register_schema(mcap::parse_schema(rec), rec.context()); break;
-      case Op::kChannel: register_channel(mcap::parse_channel(rec), rec.context()); break;
+      case Op::kChannel: {
+        mcap::Channel c = mcap::parse_channel(rec);
+        if (c.schema_id != 0 && schemas_.count(c.schema_id) == 0) {
+          channels_without_schema.emplace_back(std::move(c), rec.context());
+        } else {
+          register_channel(std::move(c), rec.context());
+        }
+        break;
+      }
       case Op::kStatistics:
         if (statistics_) rec.fail("a second Statistics record (the spec allows one)");
         statistics_ = mcap::parse_statistics(rec);
@@ -178,7 +189,12 @@ void McapReader::read_summary() {
   // Messages are reachable through the index only when every chunk is indexed; a file whose
   // summary has no ChunkIndex (e.g. messages outside chunks) is read by a linear scan.
   indexed_ = !chunk_indexes_.empty() || (statistics_ && statistics_->message_count == 0);
-  if (!indexed_) return;
+  if (!indexed_) return;  // the scan registers the data section's schemas and channels too
+  if (!channels_without_schema.empty()) {
+    ScanTotals totals;
+    scan_data_section(false, totals);  // registers the data section's Schema and Channel records
+    for (auto& [channel, context] : channels_without_schema) register_channel(std::move(channel), context);
+  }
   for (const auto& ci : chunk_indexes_) {
     blocks_.push_back({ci.chunk_start_offset, ci.chunk_length, true, ci.message_start_time, ci.message_end_time, true});
   }
@@ -193,6 +209,15 @@ void McapReader::read_summary() {
     ByteReader mr(record.data() + mcap::kRecordPrefixSize, record.size() - mcap::kRecordPrefixSize,
                   path_ + ": Metadata record" + at(mi.offset));
     metadata_.push_back(mcap::parse_metadata(mr));
+  }
+  // Spec: the MetadataIndex records are optional. When the Statistics count more Metadata records
+  // than the index locates, or neither says how many there are, they are read from the data section.
+  const bool metadata_unindexed =
+      statistics_ ? metadata_.size() < statistics_->metadata_count : metadata_indexes.empty();
+  if (metadata_unindexed) {
+    metadata_.clear();
+    ScanTotals totals;
+    scan_data_section(true, totals);  // collects every Metadata record; the index's blocks stay
   }
 }
 
