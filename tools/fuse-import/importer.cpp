@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "fuse/core/logging.hpp"
+#include "fuse/core/progress.hpp"
 #include "fuse/io/sensor_source.hpp"
 #include "fuse/rosbag/sensor_msgs.hpp"
 
@@ -91,8 +92,10 @@ ImportSummary import_bag(rosbag::BagReader& bag, const TopicChoice& topics, cons
   rosbag::BagMessage m;
   double last_imu_t = -INFINITY, last_scan_end = -INFINITY, accel_sum = 0.0;
   std::uint64_t imu_seq = 0, scan_seq = 0;
+  Progress progress("import", imu_topic.message_count + lidar_topic.message_count);
   try {
     while (bag.next(m)) {
+      progress.update(s.imu_messages + s.lidar_messages, -1.0);
       const auto& topic = bag.topics()[m.topic];
       const std::string where = topic.name + " message at " + std::to_string(m.time_ns) + " ns";
       if (m.topic == topics.imu) {

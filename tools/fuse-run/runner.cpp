@@ -3,12 +3,12 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
 
 #include "fuse/core/logging.hpp"
+#include "fuse/core/progress.hpp"
 #include "fuse/eval/trajectory.hpp"
 #include "fuse/io/sensor_source.hpp"
 #include "fuse/map/map_storage.hpp"
@@ -111,39 +111,6 @@ RunnerConfig load_runner_config(const std::string& file, const std::vector<std::
   return config;
 }
 
-namespace {
-/// s of wall clock between two progress lines.
-constexpr double kProgressPeriodS = 5.0;
-
-/// A progress line every kProgressPeriodS of wall clock: sensor time covered, speed against real
-/// time, and (when the input says how many events it holds) percentage and time left.
-class Progress {
- public:
-  explicit Progress(std::optional<std::uint64_t> expected) : expected_(expected) {}
-  void on_event(double t, std::uint64_t events, const char* tracking) {
-    if (first_t_ < 0.0) first_t_ = t;
-    const auto now = std::chrono::steady_clock::now();
-    const double wall = std::chrono::duration<double>(now - start_).count();
-    if (wall < next_) return;
-    next_ = wall + kProgressPeriodS;
-    const double sensor = t - first_t_;
-    std::string line = fmt::format("{:.1f} s of data in {:.1f} s ({:.1f}x real time), {} events, {}", sensor, wall,
-                                   sensor / wall, events, tracking);
-    if (expected_ && *expected_ > 0 && events > 0) {
-      const double fraction = std::min(1.0, static_cast<double>(events) / static_cast<double>(*expected_));
-      line = fmt::format("{:.0f} %, ", 100.0 * fraction) + line +
-             fmt::format(", about {:.0f} s left", wall * (1.0 - fraction) / fraction);
-    }
-    logger("run")->info("progress: {}", line);
-  }
-
- private:
-  std::optional<std::uint64_t> expected_;
-  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
-  double next_ = kProgressPeriodS;
-  double first_t_ = -1.0;
-};
-}  // namespace
 
 RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, const std::string& out_dir) {
   auto log = logger("run");
@@ -183,12 +150,12 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
     estimator.note_refused_scans(source->stats().scans_refused - scans_refused);
     scans_refused = source->stats().scans_refused;
   };
-  Progress progress(source->expected_events());
+  Progress progress("run", source->expected_events());
   try {
     while (source->next(ev)) {
       note_refused_scans();
-      progress.on_event(ev.kind == io::SensorEvent::Kind::kImu ? ev.imu.t : ev.scan.t_end,
-                        summary.imu_samples + summary.scans, to_string(estimator.tracking().status()));
+      progress.update(summary.imu_samples + summary.scans, ev.kind == io::SensorEvent::Kind::kImu ? ev.imu.t : ev.scan.t_end,
+                      to_string(estimator.tracking().status()));
       if (ev.kind == io::SensorEvent::Kind::kImu) {
         ++summary.imu_samples;
         estimator.ingest(ev.imu);
