@@ -11,6 +11,7 @@
 #include <array>
 #include <cstdio>
 #include <fstream>
+#include <optional>
 #include <random>
 #include <string>
 
@@ -61,6 +62,21 @@ PointMap make_map_dir(const std::filesystem::path& dir) {
   return core.map();
 }
 
+/// A map of `scans` scans saved as a snapshot file in dir (the map directory beside it).
+struct SavedMap {
+  PointMap map;
+  std::filesystem::path snapshot;
+};
+SavedMap saved_snapshot(TempDir& dir, std::uint64_t scans, std::optional<double> chunk_size = std::nullopt) {
+  MapServerConfig config;
+  config.directory = (dir / "map").string();
+  if (chunk_size) config.chunk_size = *chunk_size;
+  MapServerCore core(config);
+  for (std::uint64_t s = 1; s <= scans; ++s) core.apply(7, s, 0.0, scan(s));
+  const auto snapshot = core.save(dir / "saved.snapshot");
+  return {core.map(), snapshot};
+}
+
 std::vector<std::array<float, 3>> sorted_points(const PointMap& map) {
   std::vector<std::array<float, 3>> out;
   map.for_each_chunk([&](const PointChunk& c) {
@@ -94,28 +110,20 @@ TEST(MapExport, MapDirectoryToPcdHoldsSnapshotAndJournal) {
 
 TEST(MapExport, SnapshotFileToPly) {
   TempDir dir;
-  MapServerConfig config;
-  config.directory = (dir / "map").string();
-  MapServerCore core(config);
-  for (std::uint64_t s = 1; s <= 3; ++s) core.apply(7, s, 0.0, scan(s));
-  const auto snapshot = core.save(dir / "saved.snapshot");
+  const SavedMap saved = saved_snapshot(dir, 3);
   const auto out = dir / "map.ply";
-  const ToolRun run = run_export("--snapshot " + quoted(snapshot) + " --format ply --out " + quoted(out));
+  const ToolRun run = run_export("--snapshot " + quoted(saved.snapshot) + " --format ply --out " + quoted(out));
   ASSERT_EQ(run.exit_code, 0) << run.out;
   pcl::PointCloud<pcl::PointXYZ> cloud;
   ASSERT_EQ(pcl::io::loadPLYFile(out.string(), cloud), 0);
-  EXPECT_EQ(cloud.size(), core.map().num_points());
-  EXPECT_EQ(sorted_points(cloud), sorted_points(core.map()));
+  EXPECT_EQ(cloud.size(), saved.map.num_points());
+  EXPECT_EQ(sorted_points(cloud), sorted_points(saved.map));
 }
 
 TEST(MapExport, DamagedSnapshotExportsItsGoodPartWithAWarning) {
   TempDir dir;
-  MapServerConfig config;
-  config.directory = (dir / "map").string();
-  config.chunk_size = 5.0;
-  MapServerCore core(config);
-  for (std::uint64_t s = 1; s <= 3; ++s) core.apply(7, s, 0.0, scan(s));
-  const auto snapshot = core.save(dir / "saved.snapshot");
+  const SavedMap saved = saved_snapshot(dir, 3, 5.0);
+  const auto& snapshot = saved.snapshot;
   const auto offsets = test::record_offsets(snapshot);
   ASSERT_GE(offsets.size(), 3u);
   test::flip_byte(snapshot, offsets[1] + 20);
@@ -127,7 +135,7 @@ TEST(MapExport, DamagedSnapshotExportsItsGoodPartWithAWarning) {
   pcl::PointCloud<pcl::PointXYZ> cloud;
   ASSERT_EQ(pcl::io::loadPCDFile(out.string(), cloud), 0);
   EXPECT_GT(cloud.size(), 0u);
-  EXPECT_LT(cloud.size(), core.map().num_points());
+  EXPECT_LT(cloud.size(), saved.map.num_points());
 }
 
 TEST(MapExport, BadArgumentsAndUnreadableMapsExitWithTwo) {
@@ -162,19 +170,15 @@ TEST(MapExport, BadArgumentsAndUnreadableMapsExitWithTwo) {
 // The format is the extension's, either case; the header names the frame the points are in.
 TEST(MapExport, FormatFromTheExtensionAndTheFrameInTheHeader) {
   TempDir dir;
-  MapServerConfig config;
-  config.directory = (dir / "map").string();
-  MapServerCore core(config);
-  for (std::uint64_t s = 1; s <= 2; ++s) core.apply(7, s, 0.0, scan(s));
-  const auto snapshot = core.save(dir / "saved.snapshot");
+  const SavedMap saved = saved_snapshot(dir, 2);
   for (const char* name : {"a.pcd", "b.PLY"}) {
     const auto out = dir / name;
-    const ToolRun run = run_export("--snapshot " + quoted(snapshot) + " --out " + quoted(out));
+    const ToolRun run = run_export("--snapshot " + quoted(saved.snapshot) + " --out " + quoted(out));
     ASSERT_EQ(run.exit_code, 0) << name << "\n" << run.out;
     pcl::PointCloud<pcl::PointXYZ> cloud;
     const bool pcd = std::string(name).find(".pcd") != std::string::npos;
     ASSERT_EQ(pcd ? pcl::io::loadPCDFile(out.string(), cloud) : pcl::io::loadPLYFile(out.string(), cloud), 0) << name;
-    EXPECT_EQ(sorted_points(cloud), sorted_points(core.map())) << name;
+    EXPECT_EQ(sorted_points(cloud), sorted_points(saved.map)) << name;
     std::ifstream in(out, std::ios::binary);
     std::string header(400, '\0');
     in.read(header.data(), static_cast<std::streamsize>(header.size()));
@@ -185,13 +189,9 @@ TEST(MapExport, FormatFromTheExtensionAndTheFrameInTheHeader) {
 // A folder that does not exist: the error names the path, and nothing is left behind.
 TEST(MapExport, AnUnwritableOutputNamesThePath) {
   TempDir dir;
-  MapServerConfig config;
-  config.directory = (dir / "map").string();
-  MapServerCore core(config);
-  core.apply(7, 1, 0.0, scan(1));
-  const auto snapshot = core.save(dir / "saved.snapshot");
+  const SavedMap saved = saved_snapshot(dir, 1);
   const auto out = dir / "missing-folder" / "map.pcd";
-  const ToolRun run = run_export("--snapshot " + quoted(snapshot) + " --out " + quoted(out));
+  const ToolRun run = run_export("--snapshot " + quoted(saved.snapshot) + " --out " + quoted(out));
   EXPECT_EQ(run.exit_code, 2) << run.out;
   EXPECT_NE(run.out.find((dir / "missing-folder").string()), std::string::npos) << run.out;
   EXPECT_FALSE(std::filesystem::exists(dir / "missing-folder"));

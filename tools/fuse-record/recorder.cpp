@@ -104,6 +104,12 @@ void Recorder::write(const QueuedSample& s) {
       before_anchor_.push_back(s);
       return;
     }
+    if (!host_clock_warned_) {
+      host_clock_warned_ = true;
+      logger("record")->warn("{} samples without a sensor time and none with one yet: the next are logged on the "
+                             "host's UTC clock until a sensor time arrives",
+                             kMaxHeldBeforeSensorTime);
+    }
     put(s, host_realtime_ns(s.received));
     return;
   }

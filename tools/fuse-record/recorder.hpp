@@ -68,6 +68,7 @@ class Recorder {
   /// Samples without a sensor time received before the first with one: logged, when it comes,
   /// at its time less how much earlier they were received (writer thread only).
   std::vector<QueuedSample> before_anchor_;
+  bool host_clock_warned_ = false;  ///< said once that samples went to the host clock
   std::atomic<bool> stopping_{false}, failed_{false};
   mutable std::mutex mutex_;  ///< guards error_ and writer_'s file list
   std::string error_;

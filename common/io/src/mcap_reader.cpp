@@ -190,11 +190,6 @@ void McapReader::read_summary() {
   // summary has no ChunkIndex (e.g. messages outside chunks) is read by a linear scan.
   indexed_ = !chunk_indexes_.empty() || (statistics_ && statistics_->message_count == 0);
   if (!indexed_) return;  // the scan registers the data section's schemas and channels too
-  if (!channels_without_schema.empty()) {
-    ScanTotals totals;
-    scan_data_section(false, totals);  // registers the data section's Schema and Channel records
-    for (auto& [channel, context] : channels_without_schema) register_channel(std::move(channel), context);
-  }
   for (const auto& ci : chunk_indexes_) {
     blocks_.push_back({ci.chunk_start_offset, ci.chunk_length, true, ci.message_start_time, ci.message_end_time, true});
   }
@@ -214,10 +209,13 @@ void McapReader::read_summary() {
   // than the index locates, or neither says how many there are, they are read from the data section.
   const bool metadata_unindexed =
       statistics_ ? metadata_.size() < statistics_->metadata_count : metadata_indexes.empty();
-  if (metadata_unindexed) {
-    metadata_.clear();
+  // One pass over the data section for what the summary lacks: it registers every Schema and
+  // Channel record there and, collecting, every Metadata record (the index's blocks stay).
+  if (metadata_unindexed || !channels_without_schema.empty()) {
+    if (metadata_unindexed) metadata_.clear();
     ScanTotals totals;
-    scan_data_section(true, totals);  // collects every Metadata record; the index's blocks stay
+    scan_data_section(metadata_unindexed, totals);
+    for (auto& [channel, context] : channels_without_schema) register_channel(std::move(channel), context);
   }
 }
 
