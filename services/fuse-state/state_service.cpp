@@ -253,21 +253,15 @@ void StateService::go_live() {
 
 void StateService::restore_from(const Posterior& post, const std::string& source) {
   // The held measurement at t is the last IMU sample at or before t.
-  ImuSample held;
-  held.t = post.t;
-  bool have_held = false;
+  std::optional<ImuSample> held;
   for (const ImuSample& imu : imu_buffer_) {
     if (imu.t > post.t) break;
-    held.gyro = imu.gyro;
-    held.accel = imu.accel;
-    have_held = true;
+    held = imu;
+    held->t = post.t;
   }
-  if (!have_held) {
-    counters_.count("recovery_without_imu", "no buffered IMU before the recovered posterior: holding zero rates");
-    // What the IMU measures at rest in the posterior's attitude, biases included (a zero gyro
-    // reading would be a rotation of -b_g, coasted across any gap that follows).
-    held.gyro = post.x.bg;
-    held.accel = -post.x.R.transpose() * post.x.g + post.x.ba;
+  if (!held) {
+    counters_.count("recovery_without_imu",
+                    "no buffered IMU before the recovered posterior: coasting from it at rest in its attitude");
   }
   tracker_.restore(post.t, post.x, post.P, held);
   std::size_t replayed = 0;

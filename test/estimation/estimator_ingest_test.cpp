@@ -153,6 +153,79 @@ TEST(StateTrackerTime, CoastToBridgesASilentImuAndTheImuResumesFromThere) {
   EXPECT_EQ(tracker.counters().get("imu_gap"), 1u);
 }
 
+// A correction older than a coasted data gap (a scan held during a restart, answered after the
+// IMU resumed) re-propagates across the gap with the gap's variance and levelling applied again:
+// the history is the same whichever arrived first, the correction or the IMU after the gap.
+// (Re-propagating as if the gap had been measured left a prior of millimetres after seconds of
+// unmeasured motion: the long chaos soak's drift after fuse-state and fuse-ingest died together.)
+TEST(StateTrackerTime, ACorrectionOlderThanACoastedGapKeepsTheGapsUncertainty) {
+  for (const bool scan_in_gap : {false, true}) {
+    SCOPED_TRACE(scan_in_gap ? "a scan coasted into the gap" : "IMU resumes after the gap");
+    EstimatorConfig config;
+    StateTracker first{config}, late{config};  // correction before / after the IMU across the gap
+    for (int k = 0; k < kInitSamples; ++k) {
+      first.ingest(still_imu(k * kImuDt));
+      late.ingest(still_imu(k * kImuDt));
+    }
+    const double t_c = first.history().newest().t - 0.1;
+    NavState x_c = first.history().query(t_c).x;
+    x_c.p += Eigen::Vector3d(0.05, -0.02, 0.01);
+    x_c.R = x_c.R * so3::Exp(Eigen::Vector3d(0.02, -0.01, 0.0));  // a tilt the levelling sees
+    const StateCovariance P_c = 1e-6 * StateCovariance::Identity();
+    first.history().correct(t_c, x_c, P_c);
+    const double last_imu = first.history().newest().t, after = last_imu + 2.0;
+    for (StateTracker* tr : {&first, &late}) {
+      if (scan_in_gap) {
+        ASSERT_TRUE(tr->coast_to(last_imu + 1.0));
+      }
+      for (int k = 0; k < 5; ++k) {  // the samples after a forward step confirm it
+        ImuSample resumed = still_imu(after + k * kImuDt);
+        resumed.accel = Eigen::AngleAxisd(0.03, Eigen::Vector3d::UnitX()) * resumed.accel;
+        tr->ingest(resumed);
+      }
+    }
+    late.history().correct(t_c, x_c, P_c);
+    const auto& a = first.history().newest();
+    const auto& b = late.history().newest();
+    EXPECT_NEAR(a.t, b.t, 1e-12);
+    EXPECT_LT((a.x.p - b.x.p).norm(), 1e-9);
+    EXPECT_LT((a.x.R - b.x.R).norm(), 1e-9);
+    EXPECT_LT((a.P - b.P).cwiseAbs().maxCoeff(), 1e-9 * a.P.cwiseAbs().maxCoeff());
+    // At least the variance of one second of unmeasured motion (without the step: 1e-6 m²).
+    EXPECT_GT(b.P(Idx::kPos, Idx::kPos), std::pow(0.5 * config.divergence.gap_accel_std * 1.0 * 1.0, 2));
+  }
+}
+
+// A posterior restored with no IMU sample before it (fuse-state and the sensor's ingest restarted
+// together) coasts from its own attitude; a correction at its time arriving after the IMU resumed
+// gives what restoring the corrected posterior gives (not the specific force of the attitude
+// restored first: 0.2 m/s² of gravity per 1.2° of tilt).
+TEST(StateTrackerTime, ARestoreWithoutImuCoastsFromTheCorrectedAttitude) {
+  EstimatorConfig config;
+  StateTracker restored{config}, corrected{config};
+  const double t = 10.0;
+  NavState x;
+  x.v = Eigen::Vector3d(1.3, 0.0, 0.0);
+  NavState x_c = x;
+  x_c.R = so3::Exp(Eigen::Vector3d(0.0, 0.02, 0.0));
+  const StateCovariance P = 1e-4 * StateCovariance::Identity();
+  restored.restore(t, x, P, std::nullopt);
+  corrected.restore(t, x_c, P, std::nullopt);
+  for (int k = 0; k < 5; ++k) {
+    ImuSample s = still_imu(t + 0.3 + k * kImuDt);
+    s.accel = x_c.R.transpose() * s.accel;
+    restored.ingest(s);
+    corrected.ingest(s);
+  }
+  restored.history().correct(t, x_c, P);
+  const auto& a = restored.history().newest();
+  const auto& b = corrected.history().newest();
+  EXPECT_LT((a.x.p - b.x.p).norm(), 1e-9);
+  EXPECT_LT((a.x.v - b.x.v).norm(), 1e-9);
+  EXPECT_LT((a.P - b.P).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_NEAR(b.x.v.x(), 1.3, 1e-3);  // coasted at constant velocity
+}
+
 TEST(AgreedRate, IsTheSmallerRateWhenBothAgreeInSignElseZero) {
   const Eigen::Vector3d w = agreed_rate(Eigen::Vector3d(0.5, -0.2, 0.3), Eigen::Vector3d(0.4, -0.6, -0.1));
   EXPECT_DOUBLE_EQ(w.x(), 0.4);   // a steady turn that slows: the smaller rate

@@ -1,6 +1,7 @@
 // The pieces the restart rules rest on, without processes: fuse-state's checkpoint file (round
-// trip, and every way it can be untrustworthy) and fuse-update's scan backlog (bound, order,
-// compaction that keeps what the LiDAR step keeps).
+// trip, and every way it can be untrustworthy), fuse-update's scan backlog (bound, order,
+// compaction that keeps what the LiDAR step keeps) and the history slice it is served (entry
+// steps travel with their entries).
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -140,6 +141,40 @@ LidarScan synthetic_scan(double t_end, std::uint64_t seq, int n = 5000) {
     s.points.push_back(p);
   }
   return s;
+}
+
+// A slice entry keeps its step (a coasted gap's variance and levelling) across the wire, so that
+// fuse-update re-propagating its slice from a newer posterior (bring_up_to_date) applies it as
+// fuse-state does; a step that is not a variance is refused with the reason.
+TEST(HistorySlice, EntryStepsRoundTripAndBadOnesAreRefused) {
+  StateHistory::Entry e;
+  e.t = 12.5;
+  e.x = some_posterior(12.5).x;
+  e.gyro = Eigen::Vector3d(0.1, 0.2, 0.3);
+  e.accel = Eigen::Vector3d(0.4, 0.5, 9.6);
+  for (int i = 0; i < kStateDim; ++i) e.step.q(i) = 1e-3 * (i + 1);
+  e.step.level_accel = Eigen::Vector3d(0.2, -0.1, 9.7);
+  e.step.level_sigma = 0.1;
+  e.coasting = true;
+  const StateHistory::Entry back = from_msg(to_msg(e));
+  EXPECT_TRUE(back.coasting);
+  EXPECT_EQ(back.step.q, e.step.q);
+  EXPECT_EQ(back.step.level_accel, e.step.level_accel);
+  EXPECT_EQ(back.step.level_sigma, e.step.level_sigma);
+  StateHistory::Entry plain = e;
+  plain.step = EntryStep{};
+  EXPECT_TRUE(from_msg(to_msg(plain)).step.empty());
+  EXPECT_TRUE(to_msg(plain).step_q().empty());  // entries without a step carry no variance
+
+  fuse_msgs::HistoryEntry bad = to_msg(e);
+  bad.step_q().pop_back();
+  EXPECT_THROW(from_msg(bad), InvalidSample);
+  bad = to_msg(e);
+  bad.step_q()[4] = -1.0;
+  EXPECT_THROW(from_msg(bad), InvalidSample);
+  bad = to_msg(e);
+  bad.step_level_sigma(std::nan(""));
+  EXPECT_THROW(from_msg(bad), InvalidSample);
 }
 
 TEST(ScanBacklog, HoldsAtMostTheConfiguredSpanInOrder) {

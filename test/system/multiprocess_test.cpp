@@ -480,6 +480,37 @@ TEST_F(MultiProcess, StateAndUpdateKilledTogetherWhileMovingComeBackWithAnHonest
   EXPECT_GE(covered, 0.95);
 }
 
+// The long chaos soak's trigger: fuse-state and fuse-ingest killed together while moving.
+// fuse-state comes back from the last correction with no IMU sample before it (the ingest's held
+// samples died with it), the data resumes after a gap, and fuse-update answers the held scans
+// from before the gap after fuse-state has coasted across it; the track must go on as after a
+// gap in fuse-run.
+TEST_F(MultiProcess, StateAndIngestKilledTogetherWhileMovingKeepTheTrack) {
+  ASSERT_TRUE(fs::exists(kShortData + "/recording.mcap")) << "fixture missing: " << kShortData;
+  Pipeline p("kill-state-and-ingest", 71);
+  p.start_backend();
+  const double start_wall =
+      std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count() + 3.0;
+  const std::vector<std::string> realtime{"--mode", "realtime", "--start-wall", std::to_string(start_wall)};
+  p.start("fuse-ingest", kShortData, realtime);
+  ASSERT_TRUE(p.wait_for_lines(60, 60s));
+  p.kill("fuse-state");
+  p.kill("fuse-ingest");
+  std::this_thread::sleep_for(1s);  // a data gap of the outage plus the restart
+  p.start("fuse-state");
+  p.start("fuse-ingest", kShortData, realtime);
+  EXPECT_EQ(p.wait_ingest(kReplayTimeout), 0) << p.log("fuse-ingest", 2);
+  EXPECT_TRUE(p.stop_all());
+  const auto traj = eval::read_tum(p.trajectory());
+  const auto truth = eval::read_tum(kShortData + "/groundtruth.tum");
+  ASSERT_FALSE(traj.empty());
+  EXPECT_GT(traj.back().t, truth.back().t - 1.0);
+  const double ate_m = ate(kShortData, traj);
+  std::cout << "state + ingest killed together: " << traj.size() << " poses (fuse-run " << short_run_poses()
+            << "), ATE " << ate_m << " m\n";
+  EXPECT_LT(ate_m, 0.1);
+}
+
 TEST_F(MultiProcess, StateDownForEightSecondsCatchesUpOnTheHeldScans) {
   ASSERT_TRUE(fs::exists(kShortData + "/recording.mcap")) << "fixture missing: " << kShortData;
   Pipeline p("state-down-8s", 69);

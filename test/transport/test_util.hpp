@@ -288,6 +288,12 @@ inline fuse_msgs::HistoryReply make_history_reply(int seed) {
     e.gravity(vec(seed, i + 5));
     e.gyro(vec(seed, i + 6));
     e.accel(vec(seed, i + 7));
+    if (i == 2) {  // an entry with a step (a coasted gap): its sequence and levelling travel too
+      for (int k = 0; k < 23; ++k) e.step_q().push_back(v(seed, i + 8 + k));
+      e.step_level_accel(vec(seed, i + 31));
+      e.step_level_sigma(v(seed, i + 32));
+      e.coasting(true);
+    }
     m.entries().push_back(e);
   }
   for (std::size_t i = 0; i < m.covariance().size(); ++i) m.covariance()[i] = v(seed, static_cast<int>(i));

@@ -37,9 +37,50 @@ NavState interpolate(const NavState& x0, const NavState& x1, double a) {
   return out;
 }
 
+void level_with_accelerometer(const Eigen::Vector3d& f, double sigma, NavState& x, StateCovariance& P) {
+  // Iterated EKF on the rotation block (right perturbation R = R̂·Exp(δθ)):
+  //   h(x) = R_WIᵀu,  H = ∂h/∂δθ = [R_WIᵀu]×,  r = f/|f| − h(x_i),
+  //   δx_{i+1} = K_i (r_i + H_i δx_i),  K_i = P Hᵢᵀ (H_i P_rr Hᵢᵀ + σ² I)⁻¹,
+  // relinearised at x_i = x̂ ⊞ δx_i (a gap can leave tens of degrees to correct), P ← (I − K H) P.
+  constexpr int kIterations = 5;
+  if (!(f.norm() > 0.0) || !(sigma > 0.0)) return;
+  const Eigen::Vector3d z = f.normalized();
+  const Eigen::Vector3d u = -x.g.normalized();
+  const NavState x0 = x;
+  StateVector dx = StateVector::Zero();
+  Eigen::Matrix<double, kStateDim, 3> K;
+  Eigen::Matrix3d H;
+  for (int i = 0; i < kIterations; ++i) {
+    const Eigen::Vector3d h = x.R.transpose() * u;
+    H = so3::hat(h);
+    const Eigen::Matrix3d S = H * P.block<3, 3>(Idx::kRot, Idx::kRot) * H.transpose() +
+                              sigma * sigma * Eigen::Matrix3d::Identity();
+    K = P.middleCols<3>(Idx::kRot) * H.transpose() * S.inverse();
+    dx = K * (z - h + H * dx.segment<3>(Idx::kRot));
+    x = x0.boxplus(dx);
+  }
+  const StateCovariance KHP = K * H * P.middleRows<3>(Idx::kRot);
+  P -= KHP;
+  P = 0.5 * (P + P.transpose()).eval();
+}
+
+void EntryStep::apply(NavState& x, StateCovariance& P) const {
+  P.diagonal() += q;
+  if (level_sigma > 0.0) level_with_accelerometer(level_accel - x.ba, level_sigma, x, P);
+}
+
+Eigen::Vector3d StateHistory::step_accel(const Entry& prev, const Eigen::Vector3d& next_accel) {
+  // A coasted step: the specific force that cancels gravity in the attitude the step starts
+  // from, as it is now (after any correction before it), f = R⊤(−g) + b_a.
+  if (prev.coasting) return prev.x.R.transpose() * (-prev.x.g) + prev.x.ba;
+  return 0.5 * (prev.accel + next_accel);
+}
+
+void StateHistory::mark_newest_coasting() { entries_.back().coasting = true; }
+
 void StateHistory::reset(double t, const NavState& x, const StateCovariance& P, const ImuSample& held) {
   entries_.clear();
-  entries_.push_back({t, x, P, held.gyro, held.accel});
+  entries_.push_back({t, x, P, held.gyro, held.accel, EntryStep{}, false});
   stale_from_ = entries_.size();
   last_correction_t_ = t;
 }
@@ -56,7 +97,8 @@ void StateHistory::refresh_to(std::size_t k) const {
     Entry& cur = entries_[stale_from_];
     cur.x = prev.x;
     cur.P = prev.P;
-    propagate(cur.x, &cur.P, 0.5 * (prev.gyro + cur.gyro), 0.5 * (prev.accel + cur.accel), cur.t - prev.t, noise_);
+    propagate(cur.x, &cur.P, 0.5 * (prev.gyro + cur.gyro), step_accel(prev, cur.accel), cur.t - prev.t, noise_);
+    cur.step.apply(cur.x, cur.P);
   }
 }
 
@@ -66,8 +108,10 @@ void StateHistory::add_imu(const ImuSample& imu) {
     if (stale_entries() <= kEagerRefresh) refresh_to(entries_.size() - 1);
     const bool fresh = stale_entries() == 0;
     Entry next = entries_.back();  // a stale tail: the state is recomputed when read
-    if (fresh) propagate(next.x, &next.P, 0.5 * (next.gyro + imu.gyro), 0.5 * (next.accel + imu.accel), dt, noise_);
+    if (fresh) propagate(next.x, &next.P, 0.5 * (next.gyro + imu.gyro), step_accel(next, imu.accel), dt, noise_);
+    next.coasting = false;
     next.t = imu.t;
+    next.step = EntryStep{};
     next.gyro = imu.gyro;
     next.accel = imu.accel;
     entries_.push_back(next);
@@ -77,6 +121,7 @@ void StateHistory::add_imu(const ImuSample& imu) {
     // Same instant as the newest entry (e.g. a scan end entry): only the held measurement changes.
     entries_.back().gyro = imu.gyro;
     entries_.back().accel = imu.accel;
+    entries_.back().coasting = false;
   }
 }
 
@@ -95,8 +140,9 @@ bool StateHistory::ensure_entry(double t) {
   const Entry& base = entries_[i];
   // Split the step [base.t, next.t] at t: the first part with the held measurement.
   Entry mid = base;
-  propagate(mid.x, &mid.P, base.gyro, base.accel, t - base.t, noise_);
+  propagate(mid.x, &mid.P, base.gyro, base.coasting ? step_accel(base, base.accel) : base.accel, t - base.t, noise_);
   mid.t = t;
+  mid.step = EntryStep{};  // what the step [base.t, next.t] brings stays at its end
   const bool was_fresh = stale_entries() == 0;
   entries_.insert(entries_.begin() + static_cast<std::ptrdiff_t>(i) + 1, mid);
   // The entries after the split moved by one; the step after it now starts at t with the same
@@ -112,15 +158,28 @@ void StateHistory::correct(double t, const NavState& x, const StateCovariance& P
   refresh_to(i);  // what lies before the correction must not be recomputed over it later
   entries_[i].x = x;
   entries_[i].P = P;
+  entries_[i].step = EntryStep{};  // the posterior includes it
   repropagate_from(i);
   if (stale_entries() <= kEagerRefresh) refresh_to(entries_.size() - 1);
   last_correction_t_ = std::max(last_correction_t_, t);
 }
 
-void StateHistory::inflate(double t, const StateCovariance& Q) {
+void StateHistory::add_step_to_newest(const EntryStep& step) {
+  refresh_to(entries_.size() - 1);
+  Entry& e = entries_.back();
+  step.apply(e.x, e.P);
+  e.step.q += step.q;
+  if (step.level_sigma > 0.0) {
+    e.step.level_accel = step.level_accel;
+    e.step.level_sigma = step.level_sigma;
+  }
+}
+
+void StateHistory::inflate(double t, const StateVector& q) {
   const std::size_t i = find_at_or_before(t);
   refresh_to(i);
-  entries_[i].P += Q;
+  entries_[i].P.diagonal() += q;
+  entries_[i].step.q += q;
   repropagate_from(i);
   if (stale_entries() <= kEagerRefresh) refresh_to(entries_.size() - 1);
 }

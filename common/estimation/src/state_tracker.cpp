@@ -125,7 +125,8 @@ void StateTracker::step_clock(const ImuSample& imu, double step) {
     return;
   }
   NavState x = history_.newest().x;
-  StateCovariance P = history_.newest().P + gap_noise(config_.divergence.unknown_gap_s);
+  StateCovariance P = history_.newest().P;
+  P.diagonal() += gap_variance(config_.divergence, config_.divergence.unknown_gap_s);
   if (config_.divergence.gap_level) {
     // As after a data gap: the tilt σ of an unknown gap (σ_ω G ≈ 1 rad) would leave the LiDAR to
     // find roll and pitch too (measured without it: ATE 198 instead of 9 mm after a +100 s step).
@@ -172,38 +173,45 @@ void StateTracker::coast(const Eigen::Vector3d& rate_after, double t) {
   input.gyro = agreed_rate(mean_rate, rate_after) + before.x.bg;
   input.accel = before.x.R.transpose() * (-before.x.g) + before.x.ba;
   history_.add_imu(input);  // same instant: replaces the held measurement
+  history_.mark_newest_coasting();
   input.t = t;
   history_.add_imu(input);
+  history_.mark_newest_coasting();  // until a real sample: the step to it coasts too
 }
 
 void StateTracker::coast_across_gap(const ImuSample& imu) {
   // Coast up to the sample after the gap, take the sample as usual, and grow the covariance by
   // the unmodelled motion; the sample's accelerometer levels the coasted attitude.
   constexpr double kLastStep = 0.001;  // s: the real sample closes the gap over the last millisecond
-  const double gap = imu.t - history_.newest().t;
+  const double reached = history_.newest().t;
   coast(imu.gyro - history_.newest().x.bg, imu.t - kLastStep);
-  NavState x = history_.newest().x;
-  StateCovariance P = history_.newest().P + gap_noise(gap);
-  if (config_.divergence.gap_level) {
-    level_with_accelerometer(imu.accel - x.ba, config_.divergence.gap_accel_std / x.g.norm(), x, P);
-  }
-  history_.amend_newest(x, P);
+  history_.add_step_to_newest(gap_step(reached, imu.t, &imu.accel));
   history_.add_imu(imu);
 }
 
 bool StateTracker::coast_to(double t) {
   if (!history_.initialised() || !(t > history_.newest().t)) return false;
   const StateHistory::Entry& before = history_.newest();
-  const double dt = t - before.t;
   if (!coasted_) {
     flag_gap(t, fmt::format("IMU silent since t={:.6f} while scans arrive: coasting to the scan end t={:.6f}",
                             last_imu_t_, t));
   }
+  const double reached = before.t;
   // No sample after the gap yet: the rate the motion before agrees on with the newest held rate.
   coast(before.gyro - before.x.bg, t);
-  history_.amend_newest(history_.newest().x, history_.newest().P + gap_noise(dt));
+  history_.add_step_to_newest(gap_step(reached, t, nullptr));
   coasted_ = true;
   return true;
+}
+
+EntryStep StateTracker::gap_step(double reached, double t, const Eigen::Vector3d* accel) const {
+  EntryStep step;
+  step.q = gap_variance(config_.divergence, t - reached);
+  if (accel && config_.divergence.gap_level) {
+    step.level_accel = *accel;
+    step.level_sigma = config_.divergence.gap_accel_std / history_.newest().x.g.norm();
+  }
+  return step;
 }
 
 void StateTracker::widen(double t) { widen_prior(history_, t, config_); }
@@ -213,41 +221,12 @@ void widen_prior(StateHistory& history, double t, const EstimatorConfig& config)
   // rotation): widening an already uncertain prior again would only lose information.
   const StateQuery q = history.query(t);
   if (!q.ok()) return;
-  const StateCovariance unknown = gap_covariance(config.divergence, config.divergence.unknown_gap_s);
-  StateCovariance Q = StateCovariance::Zero();
+  const StateVector unknown = gap_variance(config.divergence, config.divergence.unknown_gap_s);
+  StateVector add = StateVector::Zero();
   for (int idx : {Idx::kPos, Idx::kVel, Idx::kRot}) {
-    if (q.P.block<3, 3>(idx, idx).diagonal().maxCoeff() < unknown(idx, idx)) {
-      Q.block<3, 3>(idx, idx) = unknown.block<3, 3>(idx, idx);
-    }
+    if (q.P.block<3, 3>(idx, idx).diagonal().maxCoeff() < unknown(idx)) add.segment<3>(idx) = unknown.segment<3>(idx);
   }
-  history.inflate(t, Q);
-}
-
-void level_with_accelerometer(const Eigen::Vector3d& f, double sigma, NavState& x, StateCovariance& P) {
-  // Iterated EKF on the rotation block (right perturbation R = R̂·Exp(δθ)):
-  //   h(x) = R_WIᵀu,  H = ∂h/∂δθ = [R_WIᵀu]×,  r = f/|f| − h(x_i),
-  //   δx_{i+1} = K_i (r_i + H_i δx_i),  K_i = P Hᵢᵀ (H_i P_rr Hᵢᵀ + σ² I)⁻¹,
-  // relinearised at x_i = x̂ ⊞ δx_i (a gap can leave tens of degrees to correct), P ← (I − K H) P.
-  constexpr int kIterations = 5;
-  if (!(f.norm() > 0.0) || !(sigma > 0.0)) return;
-  const Eigen::Vector3d z = f.normalized();
-  const Eigen::Vector3d u = -x.g.normalized();
-  const NavState x0 = x;
-  StateVector dx = StateVector::Zero();
-  Eigen::Matrix<double, kStateDim, 3> K;
-  Eigen::Matrix3d H;
-  for (int i = 0; i < kIterations; ++i) {
-    const Eigen::Vector3d h = x.R.transpose() * u;
-    H = so3::hat(h);
-    const Eigen::Matrix3d S = H * P.block<3, 3>(Idx::kRot, Idx::kRot) * H.transpose() +
-                              sigma * sigma * Eigen::Matrix3d::Identity();
-    K = P.middleCols<3>(Idx::kRot) * H.transpose() * S.inverse();
-    dx = K * (z - h + H * dx.segment<3>(Idx::kRot));
-    x = x0.boxplus(dx);
-  }
-  const StateCovariance KHP = K * H * P.middleRows<3>(Idx::kRot);
-  P -= KHP;
-  P = 0.5 * (P + P.transpose()).eval();
+  history.inflate(t, add);
 }
 
 Eigen::Vector3d agreed_rate(const Eigen::Vector3d& w0, const Eigen::Vector3d& w1) {
@@ -262,19 +241,26 @@ Eigen::Vector3d agreed_rate(const Eigen::Vector3d& w0, const Eigen::Vector3d& w1
   return w;
 }
 
-StateCovariance StateTracker::gap_noise(double dt) const { return gap_covariance(config_.divergence, dt); }
-
-StateCovariance gap_covariance(const DivergenceConfig& divergence, double dt) {
+StateVector gap_variance(const DivergenceConfig& divergence, double dt) {
   const double sa = divergence.gap_accel_std, sw = divergence.gap_gyro_std;
-  StateCovariance Q = StateCovariance::Zero();
-  Q.block<3, 3>(Idx::kPos, Idx::kPos).diagonal().setConstant(std::pow(0.5 * sa * dt * dt, 2));
-  Q.block<3, 3>(Idx::kVel, Idx::kVel).diagonal().setConstant(std::pow(sa * dt, 2));
-  Q.block<3, 3>(Idx::kRot, Idx::kRot).diagonal().setConstant(std::pow(sw * dt, 2));
-  return Q;
+  StateVector q = StateVector::Zero();
+  q.segment<3>(Idx::kPos).setConstant(std::pow(0.5 * sa * dt * dt, 2));
+  q.segment<3>(Idx::kVel).setConstant(std::pow(sa * dt, 2));
+  q.segment<3>(Idx::kRot).setConstant(std::pow(sw * dt, 2));
+  return q;
 }
 
-void StateTracker::restore(double t, const NavState& x, const StateCovariance& P, const ImuSample& held) {
-  history_.reset(t, x, P, held);
+void StateTracker::restore(double t, const NavState& x, const StateCovariance& P, const std::optional<ImuSample>& held) {
+  if (held) {
+    history_.reset(t, x, P, *held);
+  } else {
+    ImuSample rest;
+    rest.t = t;
+    rest.gyro = x.bg;  // a zero reading would be a rotation of −b_g, coasted across any gap after
+    rest.accel = x.R.transpose() * (-x.g) + x.ba;
+    history_.reset(t, x, P, rest);
+    history_.mark_newest_coasting();
+  }
   last_imu_t_ = std::max(last_imu_t_, t);
   gate_.reset(last_imu_t_);
   gated_.clear();

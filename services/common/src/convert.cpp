@@ -178,6 +178,12 @@ fuse_msgs::HistoryEntry to_msg(const StateHistory::Entry& e) {
   m.gravity(v3(e.x.g));
   m.gyro(v3(e.gyro));
   m.accel(v3(e.accel));
+  m.coasting(e.coasting);
+  if (!e.step.empty()) {
+    m.step_q().assign(e.step.q.data(), e.step.q.data() + kStateDim);
+    m.step_level_accel(v3(e.step.level_accel));
+    m.step_level_sigma(e.step.level_sigma);
+  }
   return m;
 }
 
@@ -196,6 +202,18 @@ StateHistory::Entry from_msg(const fuse_msgs::HistoryEntry& m) {
   e.gyro = finite_v3(m.gyro(), "history_invalid", "gyro");
   e.accel = finite_v3(m.accel(), "history_invalid", "accel");
   e.P = StateCovariance::Zero();
+  e.coasting = m.coasting();
+  if (!m.step_q().empty()) {
+    require(m.step_q().size() == static_cast<std::size_t>(kStateDim), "history_invalid",
+            "entry step covariance has " + std::to_string(m.step_q().size()) + " values, not " + std::to_string(kStateDim));
+    for (int i = 0; i < kStateDim; ++i) e.step.q(i) = m.step_q()[static_cast<std::size_t>(i)];
+    require(e.step.q.allFinite() && (e.step.q.array() >= 0.0).all(), "history_invalid",
+            "entry step covariance is not a finite variance");
+  }
+  e.step.level_accel = finite_v3(m.step_level_accel(), "history_invalid", "step levelling accel");
+  e.step.level_sigma = m.step_level_sigma();
+  require(std::isfinite(e.step.level_sigma) && e.step.level_sigma >= 0.0, "history_invalid",
+          "step levelling sigma is not a finite non-negative angle");
   return e;
 }
 

@@ -8,6 +8,12 @@
 // (fuse-state catching up on scans held during its restart) re-propagates the tail once, not once
 // per correction (~60 ms for 40 s of 200 Hz IMU). New IMU samples are propagated at once while
 // the stale tail is short (kEagerRefresh entries: the normal case) and appended stale otherwise.
+//
+// What is not IMU propagation but belongs to a step (a coasted data gap's unmodelled motion and
+// its accelerometer levelling, a prior widened for re-localisation) is kept with the entry it
+// applies to (Entry::step) and applied again whenever the entry is recomputed: a correction
+// older than a coasted gap (a held scan answered after the IMU resumed) must not re-propagate
+// across the gap as if the motion during it had been measured.
 #pragma once
 
 #include <algorithm>
@@ -43,6 +49,23 @@ struct StateHistoryConfig {
   void load(ConfigNode& node);
 };
 
+/// Gravity-direction update from one accelerometer sample: the bias-free specific force f (IMU
+/// frame) of a sensor that is not accelerating points up, f/|f| = R_WIᵀu with u = −g/|g|. An
+/// iterated EKF update of (x, P) with that measurement and noise σ² I₃ (σ in rad; σ_a/|g| for an
+/// unmodelled acceleration σ_a) corrects roll and pitch (and what correlates with them); the
+/// heading is unobservable from it and stays.
+void level_with_accelerometer(const Eigen::Vector3d& f, double sigma, NavState& x, StateCovariance& P);
+
+/// What happens on arriving at an entry besides IMU propagation: P += diag(q), then (when
+/// level_sigma > 0) level_with_accelerometer(level_accel − b_a, level_sigma).
+struct EntryStep {
+  StateVector q = StateVector::Zero();               ///< diagonal covariance added (unmodelled motion)
+  Eigen::Vector3d level_accel = Eigen::Vector3d::Zero();  ///< raw accelerometer sample that levels
+  double level_sigma = 0.0;                          ///< rad; 0: no levelling
+  bool empty() const { return level_sigma <= 0.0 && (q.array() == 0.0).all(); }
+  void apply(NavState& x, StateCovariance& P) const;
+};
+
 class StateHistory {
  public:
   struct Entry {
@@ -50,6 +73,11 @@ class StateHistory {
     NavState x;
     StateCovariance P;
     Eigen::Vector3d gyro, accel;  ///< the IMU measurement held from t on
+    EntryStep step;               ///< applied after propagating into this entry (empty: none)
+    /// The step from this entry on coasts a data gap: its specific force is the one that cancels
+    /// gravity in this entry's attitude, computed whenever the step is propagated (so that a
+    /// correction before the gap coasts from the corrected attitude), not the held `accel`.
+    bool coasting = false;
   };
 
   StateHistory(const StateHistoryConfig& config, const ImuNoiseConfig& noise) : config_(config), noise_(noise) {}
@@ -63,13 +91,12 @@ class StateHistory {
 
   /// Propagates the newest entry to imu.t with the average of the held and the new measurement.
   void add_imu(const ImuSample& imu);
-  /// Replaces the newest entry's state and covariance without making it a correction (a data gap's
-  /// coasted state, its covariance grown by the unmodelled motion).
-  void amend_newest(const NavState& x, const StateCovariance& P) {
-    refresh_to(entries_.size() - 1);
-    entries_.back().x = x;
-    entries_.back().P = P;
-  }
+  /// The step from the newest entry on coasts a data gap (Entry::coasting); a later add_imu at
+  /// the same instant (a real sample) ends it.
+  void mark_newest_coasting();
+  /// Applies `step` to the newest entry and keeps it there (a data gap's unmodelled motion and
+  /// levelling), so that a re-propagation from an older correction applies it again.
+  void add_step_to_newest(const EntryStep& step);
   /// Makes sure an entry exists at time t (t ≥ oldest; past the newest it extrapolates with the
   /// held measurement). Returns false when t is older than the history.
   bool ensure_entry(double t);
@@ -77,9 +104,10 @@ class StateHistory {
   void correct(double t, const NavState& x, const StateCovariance& P);
   /// Stale entries are recomputed when read; below this many, new samples refresh them at once.
   static constexpr std::size_t kEagerRefresh = 64;
-  /// Adds Q to the covariance of the entry at t (which must exist) and re-propagates later
-  /// entries, without making it a correction (a lost track's prior widened for re-localisation).
-  void inflate(double t, const StateCovariance& Q);
+  /// Adds diag(q) to the covariance of the entry at t (which must exist) and re-propagates later
+  /// entries, without making it a correction (a lost track's prior widened for re-localisation);
+  /// kept as part of the entry's step.
+  void inflate(double t, const StateVector& q);
 
   StateQuery query(double t) const;
   /// The end of the latest step between consecutive entries that is longer than max_step (coasted
@@ -106,6 +134,8 @@ class StateHistory {
 
  private:
   std::size_t find_at_or_before(double t) const;
+  /// The specific force for the step from `prev` to an entry holding `next_accel`.
+  static Eigen::Vector3d step_accel(const Entry& prev, const Eigen::Vector3d& next_accel);
   /// Marks every entry after index i stale (to be recomputed from entry i and the stored IMU).
   void repropagate_from(std::size_t i) { stale_from_ = std::min(stale_from_, i + 1); }
   /// Recomputes the stale entries up to index k (inclusive).

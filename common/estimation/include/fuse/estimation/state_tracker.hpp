@@ -4,6 +4,7 @@
 #pragma once
 
 #include <deque>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -22,16 +23,10 @@ namespace fuse {
 /// sign, else zero (minmod).
 Eigen::Vector3d agreed_rate(const Eigen::Vector3d& w0, const Eigen::Vector3d& w1);
 
-/// Gravity-direction update from one accelerometer sample: the bias-free specific force f (IMU
-/// frame) of a sensor that is not accelerating points up, f/|f| = R_WIᵀu with u = −g/|g|. An
-/// iterated EKF update of (x, P) with that measurement and noise σ² I₃ (σ in rad; σ_a/|g| for an
-/// unmodelled acceleration σ_a) corrects roll and pitch (and what correlates with them); the
-/// heading is unobservable from it and stays.
-void level_with_accelerometer(const Eigen::Vector3d& f, double sigma, NavState& x, StateCovariance& P);
-
-/// Covariance of the motion nobody measured during a data gap of dt seconds (position, velocity
-/// and rotation blocks from divergence.gap_accel_std and gap_gyro_std).
-StateCovariance gap_covariance(const DivergenceConfig& divergence, double dt);
+/// Variance (a diagonal covariance) of the motion nobody measured during a data gap of dt
+/// seconds: position (½σ_a dt²)², velocity (σ_a dt)², rotation (σ_ω dt)², from
+/// divergence.gap_accel_std and gap_gyro_std.
+StateVector gap_variance(const DivergenceConfig& divergence, double dt);
 
 /// Widens the prior at t (an entry of `history`) to at least the covariance of a gap of unknown
 /// length (estimator.divergence.unknown_gap_s), block by block: a lost track is re-localised from it.
@@ -54,16 +49,18 @@ class StateTracker {
   /// initialises from a static start, then propagates.
   void ingest(const ImuSample& imu);
   /// Starts the history from a posterior held elsewhere (a restarted fuse-state recovering the
-  /// last correction); `held` is the IMU measurement in force at t.
-  void restore(double t, const NavState& x, const StateCovariance& P, const ImuSample& held);
+  /// last correction); `held` is the IMU measurement in force at t. Without one (none buffered
+  /// from before t) the step from t coasts: the gyro bias as the rate, the specific force that
+  /// cancels gravity in the attitude at t (StateHistory::Entry::coasting).
+  void restore(double t, const NavState& x, const StateCovariance& P, const std::optional<ImuSample>& held);
   /// Coasts the history from its newest entry to time t as across a data gap (the model of
   /// coast_across_gap: constant velocity, the rotation rate the motion before agrees on, the
-  /// covariance grown by gap_noise), for a scan that ends while the IMU is silent: its prior is
+  /// covariance grown by gap_variance), for a scan that ends while the IMU is silent: its prior is
   /// then uncertain and it is re-localised. When the IMU returns, propagation continues from the
   /// newest (by then LiDAR-corrected) entry. False when not initialised or t is not after it.
   bool coast_to(double t);
   /// Widens the covariance of the entry at t (which must exist) to at least that of a gap of
-  /// unknown length (gap_noise over estimator.divergence.unknown_gap_s), so that the scan there is
+  /// unknown length (gap_variance over estimator.divergence.unknown_gap_s), so that the scan there is
   /// re-localised: a lost track keeps trying.
   void widen(double t);
   /// Another clock (a scan's end t) confirms the jump of the IMU samples the time check holds,
@@ -98,8 +95,10 @@ class StateTracker {
   void coast(const Eigen::Vector3d& rate_after, double t);
   /// Counts a data gap once (imu_gap) and reports it.
   void flag_gap(double t, const std::string& message);
-  /// Covariance of the motion nobody measured during a data gap of dt seconds.
-  StateCovariance gap_noise(double dt) const;
+  /// The step kept with the entry where a gap coasted from `reached` ends at t: the unmodelled
+  /// motion's variance over t − reached (a gap coasted scan by scan grows per scan: each scan in
+  /// it measured the pose at its end) and the levelling with `accel` when a sample ends the gap.
+  EntryStep gap_step(double reached, double t, const Eigen::Vector3d* accel) const;
 
   EstimatorConfig config_;
   StaticInitializer initializer_;
