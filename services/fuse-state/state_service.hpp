@@ -91,6 +91,10 @@ class StateService {
   bool unconfirmed_ = false;
   std::string unconfirmed_why_;
   std::chrono::steady_clock::time_point last_imu_arrival_{};  ///< wall clock of the newest IMU sample
+  /// Wall clock of the restore, and whether an IMU sample after the restored posterior has come
+  /// since: until one has, a scan ahead of the IMU waits kRestartImuWaitS, not kImuSilenceS.
+  std::chrono::steady_clock::time_point restored_at_{};
+  bool imu_since_restore_ = true;
   double silent_wait_t_ = -1.0;  ///< the scan end a history request waits on, IMU silent
   std::chrono::steady_clock::time_point silent_wait_since_{};  ///< since when it was first asked for
   fuse_msgs::TrackingState update_tracking_ = fuse_msgs::TRACKING_OK;  ///< of the newest correction

@@ -511,6 +511,27 @@ TEST_F(MultiProcess, StateAndIngestKilledTogetherWhileMovingKeepTheTrack) {
   EXPECT_LT(ate_m, 0.1);
 }
 
+// fuse-state killed while moving and restarted at once (the launcher's first backoff): the IMU
+// held during the restart reaches it after the restore, and scans must wait for it rather than be
+// answered from one held sample with the real samples then dropped as older than the state.
+TEST_F(MultiProcess, StateRestartedAtOnceWaitsForTheHeldImu) {
+  ASSERT_TRUE(fs::exists(kShortData + "/recording.mcap")) << "fixture missing: " << kShortData;
+  Pipeline p("state-quick-restart", 72);
+  const auto traj = realtime_run(p, [&] {
+    p.kill("fuse-state");
+    std::this_thread::sleep_for(250ms);
+    p.start("fuse-state");
+  });
+  const std::string log = p.log("fuse-state", 2);
+  EXPECT_NE(log.find("recovered from"), std::string::npos) << log;
+  EXPECT_EQ(log.find("imu_older_than_state"), std::string::npos) << log;
+  const double ate_m = ate(kShortData, traj);
+  std::cout << "fuse-state restarted at once: " << traj.size() << " poses (fuse-run " << short_run_poses() << "), ATE "
+            << ate_m << " m\n";
+  EXPECT_GE(static_cast<double>(traj.size()), 0.95 * static_cast<double>(short_run_poses()));
+  EXPECT_LT(ate_m, 0.1);
+}
+
 TEST_F(MultiProcess, StateDownForEightSecondsCatchesUpOnTheHeldScans) {
   ASSERT_TRUE(fs::exists(kShortData + "/recording.mcap")) << "fixture missing: " << kShortData;
   Pipeline p("state-down-8s", 69);
