@@ -1,7 +1,9 @@
 #include "fuse/service/state_checkpoint.hpp"
 
-#include <cerrno>
+#include <fcntl.h>
+#include <unistd.h>
 
+#include <cerrno>
 #include <cstring>
 #include <fstream>
 
@@ -96,17 +98,41 @@ void write_checkpoint(const std::filesystem::path& file, const Checkpoint& check
   put_u32(bytes, static_cast<std::uint32_t>(payload.size()));
   put_u32(bytes, io::crc32(payload.data(), payload.size()));
   bytes.append(reinterpret_cast<const char*>(payload.data()), payload.size());
+  // Written to a side file, flushed to the device, renamed over the old one, and the directory
+  // flushed: after a power loss the checkpoint is the old or the new one, never a torn or empty
+  // file that a rename ahead of the data would leave.
   std::filesystem::path tmp = file;
   tmp += ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    out.close();
-    if (!out) throw std::runtime_error("cannot write checkpoint " + tmp.string() + ": " + std::strerror(errno));
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) throw std::runtime_error("cannot write checkpoint " + tmp.string() + ": " + std::strerror(errno));
+  std::size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const int err = errno;
+      ::close(fd);
+      throw std::runtime_error("cannot write checkpoint " + tmp.string() + ": " + std::strerror(err));
+    }
+    done += static_cast<std::size_t>(n);
   }
+  if (::fsync(fd) != 0) {
+    const int err = errno;
+    ::close(fd);
+    throw std::runtime_error("cannot flush checkpoint " + tmp.string() + ": " + std::strerror(err));
+  }
+  ::close(fd);
   std::error_code ec;
   std::filesystem::rename(tmp, file, ec);
   if (ec) throw std::runtime_error("cannot rename checkpoint into " + file.string() + ": " + ec.message());
+  const std::filesystem::path dir = file.has_parent_path() ? file.parent_path() : std::filesystem::path(".");
+  const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dfd >= 0) {  // a directory that cannot be opened for flushing still holds the renamed file
+    const int rc = ::fsync(dfd);
+    const int err = errno;
+    ::close(dfd);
+    if (rc != 0) throw std::runtime_error("cannot flush directory " + dir.string() + ": " + std::strerror(err));
+  }
 }
 
 CheckpointWriter::CheckpointWriter(std::filesystem::path file, double period_s)
