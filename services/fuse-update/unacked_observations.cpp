@@ -1,5 +1,7 @@
 #include "unacked_observations.hpp"
 
+#include <algorithm>
+
 namespace fuse::service {
 
 std::uint64_t UnackedObservations::lowest_unacked(std::uint64_t sequence) const {
@@ -27,14 +29,17 @@ void UnackedObservations::acknowledge(std::uint64_t acked) {
 }
 
 std::vector<fuse_msgs::MapObservation> UnackedObservations::due(Clock::time_point now, bool all) {
-  const auto age = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(limits_.resend_after_s));
   std::vector<fuse_msgs::MapObservation> out;
   if (held_.empty()) return out;
   const std::uint64_t lowest = held_.front().observation.sequence_number();
   for (Held& h : held_) {
-    if (!all && now - h.sent < age) continue;
+    // Backoff: resend_after_s, then twice as long after each re-send, up to kMaxBackoff times
+    // (a map server that is up but cannot store, e.g. a full disk, is not flooded with copies).
+    const double wait = limits_.resend_after_s * static_cast<double>(1u << std::min(h.resends, kMaxBackoffDoublings));
+    if (!all && now - h.sent < std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(wait))) continue;
     h.observation.lowest_unacked(lowest);  // what the map server may settle has moved on since
     h.sent = now;
+    h.resends = all ? 0 : h.resends + 1;  // all: a new map server instance, first try again
     out.push_back(h.observation);
   }
   return out;

@@ -39,8 +39,11 @@ class UnackedObservations {
   std::vector<std::uint64_t> add(fuse_msgs::MapObservation observation, Clock::time_point sent);
   /// The map server acknowledged every observation up to acked: drops them.
   void acknowledge(std::uint64_t acked);
-  /// Copies of the observations sent longer than resend_after_s ago (all of them when all), in
-  /// order, with lowest_unacked brought up to date; they count as sent now.
+  /// Copies of the observations due again (all of them when all), in order, with lowest_unacked
+  /// brought up to date; they count as sent now. Due: sent longer than resend_after_s ago, the
+  /// wait doubling with each re-send up to 2^kMaxBackoffDoublings times; `all` (a restarted map
+  /// server) starts the doubling again.
+  static constexpr unsigned kMaxBackoffDoublings = 4;
   std::vector<fuse_msgs::MapObservation> due(Clock::time_point now, bool all);
 
   std::size_t size() const { return held_.size(); }
@@ -55,6 +58,7 @@ class UnackedObservations {
     fuse_msgs::MapObservation observation;
     Clock::time_point sent;
     std::size_t bytes = 0;  ///< of its points
+    unsigned resends = 0;
   };
 
   Limits limits_;

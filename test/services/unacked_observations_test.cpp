@@ -67,8 +67,14 @@ TEST(UnackedObservations, ReSendsInOrderWhenDueWithTheLowestBroughtUpToDate) {
     EXPECT_EQ(due[i].sequence_number(), 3 + i);
     EXPECT_EQ(due[i].lowest_unacked(), 3u);
   }
-  EXPECT_TRUE(held.due(t0 + 2000ms, false).empty()) << "re-sent at 1.5 s: due again at 2.5 s";
-  EXPECT_EQ(held.due(t0 + 2000ms, true).size(), 3u);
+  EXPECT_TRUE(held.due(t0 + 3000ms, false).empty()) << "re-sent at 1.5 s: due again after 2 s (backoff)";
+  EXPECT_EQ(held.due(t0 + 3600ms, false).size(), 3u);
+  EXPECT_TRUE(held.due(t0 + 7000ms, false).empty()) << "re-sent twice: due again after 4 s";
+  EXPECT_EQ(held.due(t0 + 7700ms, false).size(), 3u);
+  for (int k = 0; k < 6; ++k) held.due(t0 + 7700ms + std::chrono::seconds(20 * (k + 1)), false);
+  EXPECT_EQ(held.due(t0 + 127700ms + 16100ms, false).size(), 3u) << "the wait stops growing at 16 s";
+  EXPECT_EQ(held.due(t0 + 143900ms, true).size(), 3u);
+  EXPECT_EQ(held.due(t0 + 145000ms, false).size(), 3u) << "after a restarted map server: 1 s again";
   held.acknowledge(10);
   EXPECT_EQ(held.size(), 0u);
   EXPECT_EQ(held.bytes(), 0u);
