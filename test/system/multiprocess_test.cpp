@@ -567,6 +567,9 @@ TEST_F(MultiProcess, StateDownForThirtySecondsComesBackOnTheMap) {
   std::this_thread::sleep_for(30s);
   p.start("fuse-state");
   EXPECT_EQ(p.wait_ingest(kReplayTimeout), 0) << p.log("fuse-ingest", 1);
+  // The replay ends 20 s after the restart: on a loaded machine the 300 held scans may still be
+  // being answered then. Wait for them (the condition, with a generous deadline), then stop.
+  p.wait_for_lines(single_->trajectory.size() - 10, 120s);
   EXPECT_TRUE(p.stop_all());
   const auto traj = eval::read_tum(p.trajectory());
   ASSERT_FALSE(traj.empty());
