@@ -112,6 +112,24 @@ TEST(TrackingMonitor, NoUpdateWhileScansArriveIsLost) {
   EXPECT_NE(m.reason().find("no scan has fit the map"), std::string::npos) << m.reason();
 }
 
+// A stretch in which no scan arrived (scans published while a restarted fuse-update was down)
+// is not time spent failing to fit: a poor scan after it is one poor scan, not 7 s of them.
+TEST(TrackingMonitor, AStretchWithoutScansIsNotTimeWithoutAFit) {
+  TrackingMonitor m(config());
+  double t = kT0;
+  m.on_scan(good(t));
+  m.on_scan(good(t += kScanDt));
+  ScanReport starved;  // no constraints: not updated
+  starved.t = (t += 7.0);
+  m.on_scan(starved);
+  EXPECT_NE(m.status(), TrackingStatus::kLost) << m.reason();
+  for (int k = 0; k < 12; ++k) {  // scans that do arrive and do not fit still make it lost
+    starved.t = (t += kScanDt);
+    m.on_scan(starved);
+  }
+  EXPECT_EQ(m.status(), TrackingStatus::kLost);
+}
+
 TEST(TrackingMonitor, RefusedScansCountAsTimeWithoutUpdate) {
   TrackingMonitor m(config());
   m.on_scan(good(kT0));

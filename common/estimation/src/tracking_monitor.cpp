@@ -44,8 +44,12 @@ void TrackingConfig::load(ConfigNode& node) {
 void TrackingMonitor::advance(double t) {
   if (have_time_ && !rebased_ && t > last_t_) {
     const double dt = t - last_t_;
-    since_good_ += dt;
     if (dt <= config_.max_time_without_update_s) scan_period_ = dt;
+    // "Without a fit while scans arrive": a stretch in which no scan arrived at all (a LiDAR gap,
+    // scans published while this fuse-update was down) counts as one scan period, not as time
+    // spent failing to fit (a restarted fuse-update was declared lost on its second scan, and
+    // the prior widened to a gap of unknown length let re-localisation flip the heading 180°).
+    since_good_ += dt <= config_.max_time_without_update_s ? dt : scan_period_;
     if (status_ != TrackingStatus::kTracking) episodes_.back().duration += dt;
   }
   if (!have_time_ || rebased_ || t > last_t_) last_t_ = t;

@@ -37,6 +37,7 @@ std::string failure_of(const ServiceReport& r) {
     const std::string error = last_error_line(r.log_path);
     return r.name + " failed (" + (r.failure.empty() ? exit : r.failure) + ")" + (error.empty() ? "" : ": " + error);
   }
+  if (r.state == ServiceState::stopped && r.down_at_stop) return {};  // killed, its restart pending
   if (r.state == ServiceState::stopped && r.escalated) return r.name + " ignored SIGTERM and was killed";
   if (r.state == ServiceState::stopped && r.last_exit && !r.last_exit->success()) {
     return r.name + " did not stop cleanly (" + exit + ")";
@@ -82,7 +83,9 @@ LaunchOutcome run_launch(const LaunchPlan& plan, ProcessSupervisor& supervisor, 
 std::string summarize(const LaunchOutcome& outcome) {
   std::ostringstream os;
   for (const auto& r : outcome.reports) {
-    os << r.name << ": " << to_string(r.state) << ", " << (r.last_exit ? r.last_exit->describe() : "running")
+    os << r.name << ": " << to_string(r.state) << ", "
+       << (r.down_at_stop ? "down at the end, restart pending (last: " + (r.last_exit ? r.last_exit->describe() : "?") + ")"
+                          : (r.last_exit ? r.last_exit->describe() : "running"))
        << (r.escalated ? " after SIGKILL" : "") << ", restarts " << r.restarts << ", log " << r.log_path << "\n";
   }
   if (!outcome.success) {

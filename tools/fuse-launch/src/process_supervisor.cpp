@@ -150,6 +150,7 @@ ServiceReport ProcessSupervisor::stop(const std::string& name, std::chrono::mill
     }
   } else if (s.report.state == ServiceState::restarting) {
     s.report.state = ServiceState::stopped;
+    s.report.down_at_stop = true;
   }
   return s.report;
 }

@@ -58,6 +58,9 @@ struct ServiceReport {
   std::string failure;         ///< why it failed (no restarts left, exit code not restartable)
   std::optional<ExitStatus> last_exit;  ///< of its latest process, once that has ended
   bool escalated = false;               ///< stopping it needed SIGKILL
+  /// It had died and was waiting for its restart when it was stopped: down at the end of the
+  /// run, not a service that failed to stop (last_exit is the death the restart was for).
+  bool down_at_stop = false;
   std::string log_path;
 };
 
