@@ -433,13 +433,15 @@ TEST_F(MultiProcess, IngestKilledInRealTimeIsADataGapTheEstimatorSurvives) {
 
 /// A real-time replay of the short recording with `kill` done once the trajectory has 60 poses
 /// (the sensor walks); returns the trajectory fuse-state wrote.
-std::vector<StampedPose> realtime_run(Pipeline& p, const std::function<void()>& kill) {
+/// `kill` gets fuse-ingest's real-time arguments (same schedule), to restart it with.
+std::vector<StampedPose> realtime_run(Pipeline& p, const std::function<void(const std::vector<std::string>&)>& kill) {
   p.start_backend();
   const double start_wall =
       std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count() + 3.0;
-  p.start("fuse-ingest", kShortData, {"--mode", "realtime", "--start-wall", std::to_string(start_wall)});
+  const std::vector<std::string> realtime{"--mode", "realtime", "--start-wall", std::to_string(start_wall)};
+  p.start("fuse-ingest", kShortData, realtime);
   EXPECT_TRUE(p.wait_for_lines(60, 60s));
-  kill();
+  kill(realtime);
   EXPECT_EQ(p.wait_ingest(kReplayTimeout), 0) << p.log("fuse-ingest", 1);
   EXPECT_TRUE(p.stop_all());
   return eval::read_tum(p.trajectory());
@@ -457,7 +459,7 @@ TEST_F(MultiProcess, StateAndUpdateKilledTogetherWhileMovingComeBackWithAnHonest
   CorrectedWatch watch(domain);
   Pipeline p("kill-state-and-update", domain);
   double restarted_at = 0.0;  // sensor time of the newest pose before the restart
-  const auto traj = realtime_run(p, [&] {
+  const auto traj = realtime_run(p, [&](const std::vector<std::string>&) {
     p.kill("fuse-state");
     p.kill("fuse-update");
     restarted_at = eval::read_tum(p.trajectory()).back().t;
@@ -488,19 +490,13 @@ TEST_F(MultiProcess, StateAndUpdateKilledTogetherWhileMovingComeBackWithAnHonest
 TEST_F(MultiProcess, StateAndIngestKilledTogetherWhileMovingKeepTheTrack) {
   ASSERT_TRUE(fs::exists(kShortData + "/recording.mcap")) << "fixture missing: " << kShortData;
   Pipeline p("kill-state-and-ingest", 71);
-  p.start_backend();
-  const double start_wall =
-      std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count() + 3.0;
-  const std::vector<std::string> realtime{"--mode", "realtime", "--start-wall", std::to_string(start_wall)};
-  p.start("fuse-ingest", kShortData, realtime);
-  ASSERT_TRUE(p.wait_for_lines(60, 60s));
-  p.kill("fuse-state");
-  p.kill("fuse-ingest");
-  std::this_thread::sleep_for(1s);  // a data gap of the outage plus the restart
-  p.start("fuse-state");
-  p.start("fuse-ingest", kShortData, realtime);
-  EXPECT_EQ(p.wait_ingest(kReplayTimeout), 0) << p.log("fuse-ingest", 2);
-  EXPECT_TRUE(p.stop_all());
+  realtime_run(p, [&](const std::vector<std::string>& realtime) {
+    p.kill("fuse-state");
+    p.kill("fuse-ingest");
+    std::this_thread::sleep_for(1s);  // a data gap of the outage plus the restart
+    p.start("fuse-state");
+    p.start("fuse-ingest", kShortData, realtime);
+  });
   const auto traj = eval::read_tum(p.trajectory());
   const auto truth = eval::read_tum(kShortData + "/groundtruth.tum");
   ASSERT_FALSE(traj.empty());
@@ -517,7 +513,7 @@ TEST_F(MultiProcess, StateAndIngestKilledTogetherWhileMovingKeepTheTrack) {
 TEST_F(MultiProcess, StateRestartedAtOnceWaitsForTheHeldImu) {
   ASSERT_TRUE(fs::exists(kShortData + "/recording.mcap")) << "fixture missing: " << kShortData;
   Pipeline p("state-quick-restart", 72);
-  const auto traj = realtime_run(p, [&] {
+  const auto traj = realtime_run(p, [&](const std::vector<std::string>&) {
     p.kill("fuse-state");
     std::this_thread::sleep_for(250ms);
     p.start("fuse-state");
@@ -535,7 +531,7 @@ TEST_F(MultiProcess, StateRestartedAtOnceWaitsForTheHeldImu) {
 TEST_F(MultiProcess, StateDownForEightSecondsCatchesUpOnTheHeldScans) {
   ASSERT_TRUE(fs::exists(kShortData + "/recording.mcap")) << "fixture missing: " << kShortData;
   Pipeline p("state-down-8s", 69);
-  const auto traj = realtime_run(p, [&] {
+  const auto traj = realtime_run(p, [&](const std::vector<std::string>&) {
     p.kill("fuse-state");
     std::this_thread::sleep_for(8s);
     p.start("fuse-state");
