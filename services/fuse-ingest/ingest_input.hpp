@@ -32,9 +32,6 @@ struct IngestInput {
   bool live() const { return kind == Kind::kOusterUdp || kind == Kind::kLivoxUdp; }
 };
 
-/// The command-line options fuse-ingest reads for its input (for start_service's list).
-inline const char* const kInputOptions[] = {"input", "ouster-metadata", "ouster-udp", "livox-udp"};
-
 /// Reads the input options; throws std::invalid_argument naming what is wrong or missing.
 IngestInput parse_ingest_input(const ServiceArgs& args);
 

@@ -12,9 +12,19 @@ int main(int argc, char** argv) {
   ServiceArgs args;
   SystemConfig config;
   int exit_code = 0;
-  std::set<std::string> allowed = {"mode", "rate", "start-wall"};
-  allowed.insert(std::begin(kInputOptions), std::end(kInputOptions));
-  if (!start_service("fuse-ingest", argc, argv, allowed, args, config, exit_code)) {
+  const ServiceCli cli{
+      "fuse-ingest",
+      "Sensor input of FUSE-SLAM: publishes the IMU and LiDAR of a live sensor (Livox Mid-360 or Ouster over "
+      "UDP) or of a replay (MCAP recording, sequence directory, Ouster pcap or bag) on DDS.",
+      {{"input", "RECORDING", "replay a recording, a sequence directory, an Ouster .pcap or bag"},
+       {"ouster-metadata", "FILE.json", "the Ouster sensor's metadata (with a .pcap, bag or --ouster-udp)"},
+       {"ouster-udp", "ADDRESS[:LIDAR_PORT:IMU_PORT]", "a live Ouster sensor"},
+       {"livox-udp", "ADDRESS[:POINT_PORT:IMU_PORT]", "a live Livox sensor, e.g. 0.0.0.0:56301:56401"},
+       {"mode", "lockstep|realtime", "replay pace (default ingest.mode)"},
+       {"rate", "R", "replay speed factor in (0, 100] (default ingest.rate)"},
+       {"start-wall", "UNIX_S", "real-time replay: the wall-clock time of the recording's start"}},
+      "Exit codes: 0 stopped by SIGINT or SIGTERM, 1 runtime failure (restarting may help), 2 usage or config error, 4 an input that cannot be read."};
+  if (!start_service(cli, argc, argv, args, config, exit_code)) {
     return exit_code;
   }
   auto log = fuse::logger("fuse-ingest");

@@ -25,7 +25,15 @@ int main(int argc, char** argv) {
   service::ServiceArgs args;
   service::SystemConfig config;
   int exit_code = 0;
-  if (!service::start_service("fuse-map", argc, argv, {"map-dir"}, args, config, exit_code)) return exit_code;
+  const service::ServiceCli cli{
+      "fuse-map",
+      "The map server of FUSE-SLAM: journals (fsync'd, then acknowledged) and applies the observations of "
+      "map/observation, publishes map/chunk and map/status, answers fuse-map-ctl. A map directory that cannot "
+      "be written is no reason to stop: it runs degraded and tries again.",
+      {{"map-dir", "DIR", "the map directory (snapshot and journal); default map_server.directory"}},
+      "Exit codes: 0 stopped by SIGINT or SIGTERM, 1 could not start (a map file unreadable, transport), 2 usage "
+      "or config error, or the map directory locked by another running fuse-map."};
+  if (!service::start_service(cli, argc, argv, args, config, exit_code)) return exit_code;
   auto log = logger("fuse-map");
   if (args.options.count("map-dir")) {
     if (args.get("map-dir").empty()) {

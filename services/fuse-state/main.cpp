@@ -10,7 +10,15 @@ int main(int argc, char** argv) {
   ServiceArgs args;
   SystemConfig config;
   int exit_code = 0;
-  if (!start_service("fuse-state", argc, argv, {"trajectory", "calibration-from"}, args, config, exit_code)) return exit_code;
+  const ServiceCli cli{
+      "fuse-state",
+      "IMU propagation, the state history and the query and history RPCs of FUSE-SLAM: takes imu and "
+      "update/correction, publishes state/odometry and state/corrected, answers planners' queries. After a "
+      "restart it recovers from the newest posterior still held anywhere (docs/architecture.md).",
+      {{"trajectory", "FILE", "also write the corrected trajectory (TUM) to FILE"},
+       {"calibration-from", "INPUT", "take the LiDAR-IMU extrinsic of a recording or sequence directory"}},
+      "Exit codes: 0 stopped by SIGINT or SIGTERM, 1 runtime failure (restarting may help), 2 usage or config error, 4 an input that cannot be read."};
+  if (!start_service(cli, argc, argv, args, config, exit_code)) return exit_code;
   auto log = fuse::logger("fuse-state");
   try {
     // As fuse-run: a recording's extrinsic overrides the configured one.

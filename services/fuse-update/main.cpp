@@ -9,7 +9,13 @@ int main(int argc, char** argv) {
   ServiceArgs args;
   SystemConfig config;
   int exit_code = 0;
-  if (!start_service("fuse-update", argc, argv, {}, args, config, exit_code)) return exit_code;
+  const ServiceCli cli{
+      "fuse-update",
+      "LiDAR update of FUSE-SLAM: registers each scan against its replica of the map, sends the correction "
+      "to fuse-state and the accepted observation to fuse-map, keeping it until fuse-map acknowledges it.",
+      {},
+      "Exit codes: 0 stopped by SIGINT or SIGTERM, 1 runtime failure (restarting may help), 2 usage or config error, 4 an input that cannot be read."};
+  if (!start_service(cli, argc, argv, args, config, exit_code)) return exit_code;
   auto log = fuse::logger("fuse-update");
   try {
     auto participant = fuse::transport::make_participant(config.transport, "fuse-update");

@@ -85,10 +85,21 @@ int main(int argc, char** argv) {
   service::ServiceArgs args;
   service::SystemConfig config;
   int exit_code = 0;
-  if (!service::start_service("fuse-record", argc, argv,
-                              {"out", "prefix", "include", "exclude", "max-bytes", "max-seconds", "queue-bytes",
-                               "compression", "calibration-from"},
-                              args, config, exit_code)) {
+  const service::ServiceCli cli{
+      "fuse-record",
+      "Records FUSE-SLAM's DDS topics into MCAP files (DIR/NAME_000.mcap, NAME_001.mcap, ...) until SIGINT or "
+      "SIGTERM, then closes the last file and prints a summary per topic. Log times are on the sensor clock.",
+      {{"out", "DIR", "output directory (default recording)"},
+       {"prefix", "NAME", "file name prefix (default recording)"},
+       {"include", "PATTERNS", "comma-separated topic globs to record (default: all)"},
+       {"exclude", "PATTERNS", "comma-separated topic globs not to record"},
+       {"max-bytes", "N", "start a new file after N bytes"},
+       {"max-seconds", "S", "start a new file after S seconds"},
+       {"queue-bytes", "N", "bytes held for the writer before samples are dropped (counted)"},
+       {"compression", "zstd|lz4|none", "chunk compression (default zstd)"},
+       {"calibration-from", "INPUT", "copy the LiDAR-IMU extrinsic of a recording into every file"}},
+      "Exit codes: 0 recorded and closed, 1 runtime failure (output, DDS), 2 usage or config error."};
+  if (!service::start_service(cli, argc, argv, args, config, exit_code)) {
     return exit_code;
   }
   auto log = logger("record");

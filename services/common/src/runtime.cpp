@@ -7,12 +7,16 @@
 #include <mutex>
 #include <optional>
 #include <csignal>
+#include <iostream>
 #include <stdexcept>
 #include <thread>
+
+#include <CLI/CLI.hpp>
 
 #include "fuse/core/cpu_latency.hpp"
 #include "fuse/core/logging.hpp"
 #include "fuse/core/scheduling.hpp"
+#include "fuse/core/version.hpp"
 
 namespace fuse::service {
 
@@ -22,28 +26,49 @@ std::mutex g_stop_mutex;
 std::condition_variable g_stop_changed;
 }
 
-ServiceArgs parse_args(int argc, char** argv, const std::set<std::string>& allowed) {
-  ServiceArgs args;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a.rfind("--", 0) != 0) throw std::invalid_argument("unexpected argument '" + a + "'");
-    const std::string name = a.substr(2);
-    if (i + 1 >= argc) throw std::invalid_argument("option '" + a + "' needs a value");
-    const std::string value = argv[++i];
-    if (name == "config") {
-      args.config_file = value;
-    } else if (name == "set") {
-      args.overrides.push_back(value);
-    } else if (name == "log-level") {
-      args.log_level = value;
-    } else if (allowed.count(name)) {
-      args.options[name] = value;
-    } else {
-      throw std::invalid_argument("unknown option '" + a + "'");
-    }
+std::optional<int> parse_args(const ServiceCli& cli, int argc, char** argv, ServiceArgs& args) {
+  CLI::App app{cli.description, cli.name};
+  app.set_version_flag("--version", version_line(cli.name));
+  app.footer(cli.footer);
+  app.add_option("--config", args.config_file, "the system config (YAML), validated at start-up")
+      ->type_name("FILE")
+      ->required();
+  app.add_option("--set", args.overrides, "override one config key (repeatable), e.g. --set transport.domain_id=7")
+      ->type_name("KEY=VALUE")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  std::optional<int> domain;
+  std::string vendor;
+  app.add_option("--domain", domain, "DDS domain id: --set transport.domain_id=N")->type_name("N");
+  app.add_option("--vendor", vendor, "DDS implementation, fastdds or cyclonedds: --set transport.vendor=V")
+      ->type_name("V")
+      ->check(CLI::IsMember({"fastdds", "cyclonedds"}));
+  app.add_option("--log-level", args.log_level, "trace|debug|info|warn|error (default info)")->type_name("L");
+  std::map<std::string, std::string> own;
+  for (const OptionSpec& o : cli.options) {
+    app.add_option("--" + o.name, own[o.name], o.help)->type_name(o.value_name);
   }
-  if (args.config_file.empty()) throw std::invalid_argument("--config FILE is required");
-  return args;
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp&) {
+    std::cout << app.help();
+    return kExitOk;
+  } catch (const CLI::CallForVersion&) {
+    std::cout << version_line(cli.name) << "\n";
+    return kExitOk;
+  } catch (const CLI::ParseError& e) {
+    std::cerr << cli.name << ": " << e.what() << "\n" << "Run " << cli.name << " --help for the options.\n";
+    return kExitUsage;
+  }
+  for (const OptionSpec& o : cli.options) {
+    if (app.count("--" + o.name) > 0) args.options[o.name] = own[o.name];
+  }
+  std::vector<std::string> overrides;
+  if (domain) overrides.push_back("transport.domain_id=" + std::to_string(*domain));
+  if (!vendor.empty()) overrides.push_back("transport.vendor=" + vendor);
+  overrides.insert(overrides.end(), args.overrides.begin(), args.overrides.end());
+  args.overrides = std::move(overrides);
+  return std::nullopt;
 }
 
 void install_signal_handling() {
@@ -74,11 +99,15 @@ bool wait_for_stop(double seconds) {
   return g_stop_changed.wait_until(lock, end, [] { return g_stop.load(); });
 }
 
-bool start_service(const std::string& name, int argc, char** argv, const std::set<std::string>& allowed,
-                   ServiceArgs& args, SystemConfig& config, int& exit_code) {
+bool start_service(const ServiceCli& cli, int argc, char** argv, ServiceArgs& args, SystemConfig& config,
+                   int& exit_code) {
+  const std::string& name = cli.name;
+  if (const std::optional<int> code = parse_args(cli, argc, argv, args)) {
+    exit_code = *code;
+    return false;
+  }
   install_signal_handling();
   try {
-    args = parse_args(argc, argv, allowed);
     set_log_level(args.log_level);
     config = load_system_config(args.config_file, args.overrides);
   } catch (const std::exception& e) {

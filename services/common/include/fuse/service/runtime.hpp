@@ -1,9 +1,11 @@
-// What every service main shares: the command line (--config FILE, --set key=value, and the
-// service's own options), the validated system config, logging, and shutdown on SIGINT/SIGTERM.
+// What every service main shares: the command line (CLI11: --config FILE, --set key=value,
+// --domain N, --vendor V, --log-level L, --help, --version, and the service's own options), the
+// validated system config, logging, and shutdown on SIGINT/SIGTERM.
 #pragma once
 
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -31,9 +33,26 @@ struct ServiceArgs {
   }
 };
 
-/// Parses argv; `allowed` lists the service's own options (without "--"). Throws
-/// std::invalid_argument naming the bad argument.
-ServiceArgs parse_args(int argc, char** argv, const std::set<std::string>& allowed);
+/// One of a service's own options: --name VALUE.
+struct OptionSpec {
+  std::string name;        ///< without "--"
+  std::string value_name;  ///< e.g. "DIR", shown in --help
+  std::string help;
+};
+
+/// What --help says about a service, and the options it takes besides the common ones.
+struct ServiceCli {
+  std::string name;         ///< the binary, e.g. "fuse-map"
+  std::string description;  ///< the first paragraph of --help
+  std::vector<OptionSpec> options;
+  std::string footer;       ///< after the options (exit codes, notes)
+};
+
+/// Parses argv. Returns the exit code when the program should end now: 0 after --help or
+/// --version (printed on stdout), kExitUsage after a usage error (printed on stderr, naming the
+/// flag); std::nullopt to go on. --domain N and --vendor V become the overrides
+/// transport.domain_id=N and transport.vendor=V, applied before the --set ones.
+std::optional<int> parse_args(const ServiceCli& cli, int argc, char** argv, ServiceArgs& args);
 
 /// Blocks SIGINT/SIGTERM in every thread (call first in main, before any thread starts);
 /// stop_requested() turns true once one arrives.
@@ -44,7 +63,7 @@ bool wait_for_stop(double seconds);
 
 /// The usual main body: parse, load config, set up logging; on error prints the reason and
 /// returns the exit code (2 for usage/config) through `exit_code`.
-bool start_service(const std::string& name, int argc, char** argv, const std::set<std::string>& allowed,
-                   ServiceArgs& args, SystemConfig& config, int& exit_code);
+bool start_service(const ServiceCli& cli, int argc, char** argv, ServiceArgs& args, SystemConfig& config,
+                   int& exit_code);
 
 }  // namespace fuse::service
