@@ -14,8 +14,9 @@ $SUDO apt-get install -y -q --no-install-recommends \
   libprotobuf-dev protobuf-compiler \
   libspdlog-dev libfmt-dev libyaml-cpp-dev libjsoncpp-dev \
   libgtest-dev libgmock-dev libbenchmark-dev \
-  liblz4-dev libzstd-dev libbz2-dev libsqlite3-dev \
-  systemd
+  liblz4-dev libzstd-dev libbz2-dev libsqlite3-dev libcli11-dev \
+  systemd \
+  debhelper lintian help2man chrpath dpkg-dev
 # Node.js is only used by the interoperability test (npm packages that read our MCAP files).
 # Some images ship a Node.js build that bundles npm and conflicts with Debian's npm package.
 if ! command -v node >/dev/null 2>&1; then

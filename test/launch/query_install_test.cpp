@@ -1,6 +1,6 @@
 // The installed package: `cmake --install --component query` into a temporary prefix gives the
 // library, the one standard-library-only header, the CMake package and fuse-query; a project
-// outside FUSE configures with find_package(fuse), links fuse::query only, builds and runs
+// outside FUSE configures with find_package(fuse-slam), links fuse-slam::query only, builds and runs
 // (DDS domain 44, no server there).
 #include <gtest/gtest.h>
 #include <sys/wait.h>
@@ -42,7 +42,7 @@ TEST_F(QueryInstall, InstallsAPackageAnOutsideProjectBuildsAgainst) {
       << output();
 
   // The header, and nothing but the standard library in it.
-  const fs::path header = fs::path(prefix()) / "include/fuse/query/client.hpp";
+  const fs::path header = fs::path(prefix()) / "include/fuse-slam/fuse/query/client.hpp";
   ASSERT_TRUE(fs::exists(header)) << output();
   int headers = 0;
   for (const auto& e : fs::recursive_directory_iterator(fs::path(prefix()) / "include")) headers += e.is_regular_file();
@@ -53,9 +53,9 @@ TEST_F(QueryInstall, InstallsAPackageAnOutsideProjectBuildsAgainst) {
   for (std::sregex_iterator it(text.begin(), text.end(), include_line), end; it != end; ++it) {
     EXPECT_TRUE(std::regex_match((*it)[1].str(), standard)) << "not a standard header: " << (*it)[1];
   }
-  EXPECT_FALSE(find("libfuse_query.so").empty());
-  EXPECT_FALSE(find("fuseConfig.cmake").empty());
-  EXPECT_FALSE(find("fuseConfigVersion.cmake").empty());
+  EXPECT_FALSE(find("libfuse_slam_query.so.1").empty());
+  EXPECT_FALSE(find("fuse-slamConfig.cmake").empty());
+  EXPECT_FALSE(find("fuse-slamConfigVersion.cmake").empty());
   EXPECT_TRUE(find("libfuse_transport.a").empty()) << "static libraries stay inside the .so";
 
   // An outside project: configure, build, run.
