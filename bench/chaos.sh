@@ -3,7 +3,8 @@
 # real time while fuse-bench-chaos SIGKILLs random services (one, or two at once) every 3-8 s,
 # fills the map disk and makes it read-only for a while, and a planner client stays connected.
 #
-#   bench/chaos.sh [long|short]      long (default): 2 laps of the corridor (630 s, ~110 kills)
+#   bench/chaos.sh [long|mid|short]      long (default): 2 laps of the corridor (630 s, ~110 kills)
+#                                    mid: 180 s, ~30 kills (the corridor replay)
 #                                    short: 90 s, ~15 kills (what CI runs, test/system)
 #   environment: FUSE_BIN (binaries, default build/bin), CONFIG (default config/mid360.yaml),
 #                SEED (kill schedule, default 1), DOMAIN (default 36; the run without kills uses
@@ -29,8 +30,9 @@ done
 
 case "$MODE" in
   long)  SIM=(--scenario corridor --seed 5 --laps 2); DISK_FULL=200:30; READ_ONLY=420:30 ;;
+  mid)   SIM=(--scenario corridor --seed 3 --duration 180); DISK_FULL=50:15; READ_ONLY=110:15 ;;
   short) SIM=(--scenario corridor --seed 2 --duration 90); DISK_FULL=25:10; READ_ONLY=55:10 ;;
-  *) echo "usage: bench/chaos.sh [long|short]" >&2; exit 2 ;;
+  *) echo "usage: bench/chaos.sh [long|mid|short]" >&2; exit 2 ;;
 esac
 DATA=out/chaos-data/${MODE}
 if [ ! -f "$DATA/recording.mcap" ]; then
