@@ -1,84 +1,54 @@
 // Command-line parsing of fuse-eval: every value is checked before anything is read.
 #include "arguments.hpp"
 
-#include <cerrno>
 #include <cmath>
-#include <cstdlib>
+#include <stdexcept>
+
+#include "fuse/cli/cli.hpp"
 
 namespace fuse::eval_tool {
-namespace {
 
-/// A finite number or ArgumentError naming the option.
-double parse_number(const std::string& option, const std::string& text) {
-  errno = 0;
-  char* end = nullptr;
-  const double value = std::strtod(text.c_str(), &end);
-  if (text.empty() || end == text.c_str() || *end != '\0' || errno == ERANGE || !std::isfinite(value)) {
-    throw ArgumentError(option + ": '" + text + "' is not a finite number");
+std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
+  const auto app = cli::make_app(
+      "fuse-eval",
+      "Evaluates an estimated trajectory against a reference with evo's ATE and RPE definitions plus terminal "
+      "drift (docs/evaluation-metrics.md). Prints 'name: value' lines, or one JSON object.",
+      "Exit codes: 0 success, 2 bad arguments, unreadable files or no evaluation possible.");
+  std::string format = "tum", align = "se3";
+  double delta = a.config.rpe_delta_m, t_max_diff = a.config.max_time_difference;
+  app->add_option("--gt", a.gt_path, "reference (ground truth) trajectory")->type_name("FILE")->required();
+  app->add_option("--est", a.est_path, "estimated trajectory")->type_name("FILE")->required();
+  app->add_option("--format", format, "tum (default; matched by timestamp) or kitti (matched by index)")
+      ->type_name("tum|kitti");
+  app->add_option("--delta", delta, "RPE delta in metres of reference path (default 1.0)")->type_name("M");
+  app->add_option("--t-max-diff", t_max_diff, "largest timestamp difference of a match in s (default 0.01)")
+      ->type_name("S");
+  app->add_option("--align", align, "ATE alignment: se3 (default, evo_ape -a), sim3 (-a -s), none")
+      ->type_name("se3|sim3|none");
+  app->add_flag("--json", a.json, "print one JSON object instead of 'name: value' lines");
+  if (const std::optional<int> code = cli::parse(*app, argc, argv)) return code;
+  try {
+    a.format = eval::parse_trajectory_format(format);
+  } catch (const std::invalid_argument& e) {
+    return cli::usage_error(*app, std::string("--format: ") + e.what());
   }
-  return value;
-}
-
-/// The value after an option, or ArgumentError when the command line ends.
-const std::string& value_of(const std::vector<std::string>& args, std::size_t& i) {
-  if (i + 1 >= args.size()) throw ArgumentError(args[i] + " needs a value");
-  return args[++i];
-}
-
-}  // namespace
-
-std::string usage() {
-  return "usage: fuse-eval --gt GT --est EST [--format tum|kitti] [--delta M] [--t-max-diff S]\n"
-         "                 [--align se3|sim3|none] [--json]\n"
-         "  --gt FILE          reference (ground truth) trajectory\n"
-         "  --est FILE         estimated trajectory\n"
-         "  --format F         tum (default; matched by timestamp) or kitti (matched by index)\n"
-         "  --delta M          RPE delta in metres of reference path (default 1.0)\n"
-         "  --t-max-diff S     largest timestamp difference of a match in s (default 0.01)\n"
-         "  --align A          ATE alignment: se3 (default, evo_ape -a), sim3 (-a -s), none\n"
-         "  --json             print one JSON object instead of 'name: value' lines\n"
-         "Exit codes: 0 success, 2 bad arguments, unreadable files or no evaluation possible.\n";
-}
-
-Arguments parse_arguments(const std::vector<std::string>& args) {
-  Arguments a;
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    const std::string& arg = args[i];
-    try {
-      if (arg == "--help" || arg == "-h") {
-        a.help = true;
-      } else if (arg == "--gt") {
-        a.gt_path = value_of(args, i);
-      } else if (arg == "--est") {
-        a.est_path = value_of(args, i);
-      } else if (arg == "--format") {
-        a.format = eval::parse_trajectory_format(value_of(args, i));
-      } else if (arg == "--delta") {
-        a.config.rpe_delta_m = parse_number(arg, value_of(args, i));
-      } else if (arg == "--t-max-diff") {
-        a.config.max_time_difference = parse_number(arg, value_of(args, i));
-      } else if (arg == "--align") {
-        a.config.alignment = eval::parse_alignment_mode(value_of(args, i));
-      } else if (arg == "--json") {
-        a.json = true;
-      } else {
-        throw ArgumentError("unknown argument '" + arg + "'");
-      }
-    } catch (const std::invalid_argument& e) {
-      throw ArgumentError(arg + ": " + e.what());
-    }
+  try {
+    a.config.alignment = eval::parse_alignment_mode(align);
+  } catch (const std::invalid_argument& e) {
+    return cli::usage_error(*app, std::string("--align: ") + e.what());
   }
-  if (a.help) return a;
-  if (a.gt_path.empty()) throw ArgumentError("--gt is required");
-  if (a.est_path.empty()) throw ArgumentError("--est is required");
+  if (!std::isfinite(delta)) return cli::usage_error(*app, "--delta: not a finite number");
+  if (!std::isfinite(t_max_diff)) return cli::usage_error(*app, "--t-max-diff: not a finite number");
+  a.config.rpe_delta_m = delta;
+  a.config.max_time_difference = t_max_diff;
   a.config.association =
       a.format == eval::TrajectoryFormat::kKitti ? eval::AssociationMode::kIndex : eval::AssociationMode::kTimestamp;
   try {
     a.config.validate();
   } catch (const std::invalid_argument& e) {
-    throw ArgumentError(e.what());
+    return cli::usage_error(*app, e.what());
   }
-  return a;
+  return std::nullopt;
 }
 
 }  // namespace fuse::eval_tool

@@ -1,20 +1,13 @@
-// Command line of fuse-eval.
+// Command line of fuse-eval (CLI11, the convention of every binary: fuse/cli/cli.hpp).
 #pragma once
 
-#include <stdexcept>
+#include <optional>
 #include <string>
-#include <vector>
 
 #include "fuse/eval/evaluate.hpp"
 #include "fuse/eval/trajectory.hpp"
 
 namespace fuse::eval_tool {
-
-/// A command line that cannot be used; main prints it with the usage and exits with 2.
-class ArgumentError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
 
 struct Arguments {
   std::string gt_path;
@@ -22,13 +15,10 @@ struct Arguments {
   eval::TrajectoryFormat format = eval::TrajectoryFormat::kTum;
   eval::EvaluationConfig config;  ///< association follows the format: KITTI matches by index
   bool json = false;
-  bool help = false;
 };
 
-/// Parses argv[1..]; throws ArgumentError naming the offending argument.
-Arguments parse_arguments(const std::vector<std::string>& args);
-
-/// The --help text.
-std::string usage();
+/// Parses and checks argv into `a`. std::nullopt: go on; otherwise the exit code to end with
+/// (0 after --help / --version, 2 after a usage error, printed naming the flag).
+std::optional<int> parse_arguments(int argc, char** argv, Arguments& a);
 
 }  // namespace fuse::eval_tool

@@ -2,9 +2,9 @@
 // definitions plus terminal drift (docs/evaluation-metrics.md). Prints "name: value" lines or
 // one JSON object on stdout; any bad input gives a message on stderr and exit code 2.
 #include <exception>
+#include <optional>
 #include <iostream>
 #include <string>
-#include <vector>
 
 #include "arguments.hpp"
 #include "fuse/eval/evaluate.hpp"
@@ -27,16 +27,7 @@ int run(const fuse::eval_tool::Arguments& args) {
 
 int main(int argc, char** argv) {
   fuse::eval_tool::Arguments args;
-  try {
-    args = fuse::eval_tool::parse_arguments(std::vector<std::string>(argv + 1, argv + argc));
-  } catch (const std::exception& e) {
-    std::cerr << "fuse-eval: " << e.what() << "\n" << fuse::eval_tool::usage();
-    return kExitBadInput;
-  }
-  if (args.help) {
-    std::cout << fuse::eval_tool::usage();
-    return kExitOk;
-  }
+  if (const std::optional<int> code = fuse::eval_tool::parse_arguments(argc, argv, args)) return *code;
   try {
     return run(args);
   } catch (const std::exception& e) {

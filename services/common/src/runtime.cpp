@@ -7,16 +7,13 @@
 #include <mutex>
 #include <optional>
 #include <csignal>
-#include <iostream>
 #include <stdexcept>
 #include <thread>
 
-#include <CLI/CLI.hpp>
-
+#include "fuse/cli/cli.hpp"
 #include "fuse/core/cpu_latency.hpp"
 #include "fuse/core/logging.hpp"
 #include "fuse/core/scheduling.hpp"
-#include "fuse/core/version.hpp"
 
 namespace fuse::service {
 
@@ -27,41 +24,28 @@ std::condition_variable g_stop_changed;
 }
 
 std::optional<int> parse_args(const ServiceCli& cli, int argc, char** argv, ServiceArgs& args) {
-  CLI::App app{cli.description, cli.name};
-  app.set_version_flag("--version", version_line(cli.name));
-  app.footer(cli.footer);
-  app.add_option("--config", args.config_file, "the system config (YAML), validated at start-up")
+  const auto app = cli::make_app(cli.name, cli.description, cli.footer);
+  app->add_option("--config", args.config_file, "the system config (YAML), validated at start-up")
       ->type_name("FILE")
       ->required();
-  app.add_option("--set", args.overrides, "override one config key (repeatable), e.g. --set transport.domain_id=7")
+  app->add_option("--set", args.overrides, "override one config key (repeatable), e.g. --set transport.domain_id=7")
       ->type_name("KEY=VALUE")
       ->expected(1)
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   std::optional<int> domain;
   std::string vendor;
-  app.add_option("--domain", domain, "DDS domain id: --set transport.domain_id=N")->type_name("N");
-  app.add_option("--vendor", vendor, "DDS implementation, fastdds or cyclonedds: --set transport.vendor=V")
+  app->add_option("--domain", domain, "DDS domain id: --set transport.domain_id=N")->type_name("N");
+  app->add_option("--vendor", vendor, "DDS implementation, fastdds or cyclonedds: --set transport.vendor=V")
       ->type_name("V")
       ->check(CLI::IsMember({"fastdds", "cyclonedds"}));
-  app.add_option("--log-level", args.log_level, "trace|debug|info|warn|error (default info)")->type_name("L");
+  app->add_option("--log-level", args.log_level, "trace|debug|info|warn|error (default info)")->type_name("L");
   std::map<std::string, std::string> own;
   for (const OptionSpec& o : cli.options) {
-    app.add_option("--" + o.name, own[o.name], o.help)->type_name(o.value_name);
+    app->add_option("--" + o.name, own[o.name], o.help)->type_name(o.value_name);
   }
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::CallForHelp&) {
-    std::cout << app.help();
-    return kExitOk;
-  } catch (const CLI::CallForVersion&) {
-    std::cout << version_line(cli.name) << "\n";
-    return kExitOk;
-  } catch (const CLI::ParseError& e) {
-    std::cerr << cli.name << ": " << e.what() << "\n" << "Run " << cli.name << " --help for the options.\n";
-    return kExitUsage;
-  }
+  if (const std::optional<int> code = cli::parse(*app, argc, argv)) return code;
   for (const OptionSpec& o : cli.options) {
-    if (app.count("--" + o.name) > 0) args.options[o.name] = own[o.name];
+    if (app->count("--" + o.name) > 0) args.options[o.name] = own[o.name];
   }
   std::vector<std::string> overrides;
   if (domain) overrides.push_back("transport.domain_id=" + std::to_string(*domain));

@@ -129,7 +129,12 @@ void RunMonitor::poll() {
   if (in_outage_) {
     const double length = std::chrono::duration<double>(now - outage_start_).count();
     if (!outage) {
-      if (length > limits_.loss_after_s) ++outages_over_limit_;
+      if (length > limits_.loss_after_s) {
+        ++outages_over_limit_;
+        // When it ended (the log line's time) and how long: to set beside the services' logs.
+        logger("launch")->warn("no estimate for {:.1f} s while sensor data flowed (a loss: over {:.1f} s); estimates again",
+                               length, limits_.loss_after_s);
+      }
       in_outage_ = false;
     }
     longest_outage_s_ = std::max(longest_outage_s_, length);

@@ -1,0 +1,45 @@
+#include "fuse/cli/cli.hpp"
+
+#include <iostream>
+
+#include "fuse/core/version.hpp"
+
+namespace fuse::cli {
+
+std::unique_ptr<CLI::App> make_app(const std::string& name, const std::string& description,
+                                   const std::string& footer) {
+  auto app = std::make_unique<CLI::App>(description, name);
+  app->set_version_flag("--version", version_line(name));
+  if (!footer.empty()) app->footer(footer);
+  return app;
+}
+
+std::optional<int> parse(CLI::App& app, int argc, char** argv) {
+  // An unknown flag is named first, before a missing required option hides it.
+  for (int i = 1; i < argc; ++i) {
+    const std::string token = argv[i];
+    if (token.size() <= 2 || token.rfind("--", 0) != 0) continue;
+    const std::string name = token.substr(0, token.find('='));
+    if (app.get_option_no_throw(name) == nullptr) return usage_error(app, "unknown option " + name);
+  }
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp&) {
+    std::cout << app.help();
+    return 0;
+  } catch (const CLI::CallForVersion&) {
+    std::cout << version_line(app.get_name()) << "\n";
+    return 0;
+  } catch (const CLI::ParseError& e) {
+    return usage_error(app, e.what());
+  }
+  return std::nullopt;
+}
+
+int usage_error(const CLI::App& app, const std::string& message) {
+  std::cerr << app.get_name() << ": " << message << "\n"
+            << "Run " << app.get_name() << " --help for the options.\n";
+  return kExitUsage;
+}
+
+}  // namespace fuse::cli
