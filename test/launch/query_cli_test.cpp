@@ -165,7 +165,12 @@ TEST_F(QueryCli, UsageErrorsExitWithTwo) {
   EXPECT_EQ(query("--set transport.domain_id=500").code, 2);
   const Run help = query("--help");
   EXPECT_EQ(help.code, 0);
-  EXPECT_NE(help.out.find("usage: fuse-query"), std::string::npos);
+  EXPECT_NE(help.out.find("Usage: fuse-query"), std::string::npos);
+  const Run bogus = query("--bogus");
+  EXPECT_NE(bogus.err.find("--bogus"), std::string::npos) << bogus.err;
+  const Run version = query("--version");
+  EXPECT_EQ(version.code, 0);
+  EXPECT_NE(version.out.find("fuse-query (FUSE-SLAM) "), std::string::npos) << version.out;
 }
 
 }  // namespace

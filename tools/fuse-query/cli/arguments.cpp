@@ -2,6 +2,9 @@
 
 #include <cerrno>
 #include <cstdlib>
+#include <stdexcept>
+
+#include "fuse/cli/cli.hpp"
 
 namespace fuse::query_tool {
 
@@ -11,7 +14,7 @@ double parse_double(const std::string& name, const std::string& text) {
   errno = 0;
   const double v = std::strtod(text.c_str(), &end);
   if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE) {
-    throw ArgumentError(name + ": '" + text + "' is not a number");
+    throw std::invalid_argument(name + ": '" + text + "' is not a number");
   }
   return v;  // non-finite values pass: the client refuses them as a bad request
 }
@@ -21,52 +24,52 @@ int parse_positive_int(const std::string& name, const std::string& text) {
   errno = 0;
   const long v = std::strtol(text.c_str(), &end, 10);
   if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE || v <= 0 || v > 3'600'000) {
-    throw ArgumentError(name + ": '" + text + "' is not a positive number of milliseconds");
+    throw std::invalid_argument(name + ": '" + text + "' is not a positive number of milliseconds");
   }
   return static_cast<int>(v);
 }
 }  // namespace
 
-Arguments parse_arguments(const std::vector<std::string>& args) {
-  Arguments a;
-  bool time_given = false, latest_given = false;
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    const std::string& arg = args[i];
-    auto value = [&]() -> const std::string& {
-      if (i + 1 >= args.size()) throw ArgumentError(arg + " needs a value");
-      return args[++i];
-    };
-    if (arg == "--help" || arg == "-h") {
-      a.help = true;
-    } else if (arg == "--time") {
-      a.time = parse_double(arg, value());
+std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
+  const auto app = cli::make_app(
+      "fuse-query",
+      "Asks fuse-state for the estimate at time T (seconds, sensor clock) or the latest one: pose, velocity, "
+      "covariance, status.",
+      "Exit codes: 0 a pose to steer by, 2 usage or config, 3 an answer that is not one (outside the history, "
+      "relocalizing, lost, not ready, error reply), 4 no reply (unavailable).");
+  std::string time;
+  std::optional<int> domain;
+  std::string vendor;
+  std::string deadline;
+  app->add_option("--time", time, "the sensor time to ask for")->type_name("T");
+  app->add_flag("--latest", "the latest estimate (the default)");
+  app->add_flag("--json", a.json, "print one JSON object");
+  app->add_option("--deadline-ms", deadline, "wait at most N ms for the reply (default 1000)")->type_name("N");
+  app->add_option("--config", a.config_file, "a FUSE config; only its transport: section is read")->type_name("FILE");
+  app->add_option("--set", a.overrides, "override a config value (repeatable), e.g. --set transport.domain_id=7")
+      ->type_name("KEY=VALUE")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  app->add_option("--domain", domain, "DDS domain id: --set transport.domain_id=N")->type_name("N");
+  app->add_option("--vendor", vendor, "DDS implementation, fastdds or cyclonedds: --set transport.vendor=V")
+      ->type_name("V");
+  if (const std::optional<int> code = cli::parse(*app, argc, argv)) return code;
+  try {
+    if (app->count("--time") > 0) {
+      if (app->count("--latest") > 0) return cli::usage_error(*app, "--time and --latest exclude each other");
+      a.time = parse_double("--time", time);
       a.latest = false;
-      time_given = true;
-    } else if (arg == "--latest") {
-      latest_given = true;
-    } else if (arg == "--json") {
-      a.json = true;
-    } else if (arg == "--deadline-ms") {
-      a.deadline_ms = parse_positive_int(arg, value());
-    } else if (arg == "--config") {
-      a.config_file = value();
-    } else if (arg == "--set") {
-      a.overrides.push_back(value());
-    } else {
-      throw ArgumentError("unknown argument '" + arg + "'");
     }
+    if (app->count("--deadline-ms") > 0) a.deadline_ms = parse_positive_int("--deadline-ms", deadline);
+  } catch (const std::invalid_argument& e) {
+    return cli::usage_error(*app, e.what());
   }
-  if (time_given && latest_given) throw ArgumentError("--time and --latest exclude each other");
-  return a;
-}
-
-std::string usage() {
-  return "usage: fuse-query [--time T | --latest] [--json] [--deadline-ms N] [--config FILE] [--set key=value]...\n"
-         "  Asks fuse-state for the estimate at time T (seconds, sensor clock) or the latest one.\n"
-         "  --config: a FUSE config; only its transport: section is read (vendor, domain_id, ...)\n"
-         "  --set:    override a config value, e.g. --set transport.domain_id=7\n"
-         "  --json:   print one JSON object\n"
-         "  exit codes: 0 answered (any status), 2 usage or config, 3 error reply, 4 no reply (unavailable)\n";
+  std::vector<std::string> overrides;
+  if (domain) overrides.push_back("transport.domain_id=" + std::to_string(*domain));
+  if (!vendor.empty()) overrides.push_back("transport.vendor=" + vendor);
+  overrides.insert(overrides.end(), a.overrides.begin(), a.overrides.end());
+  a.overrides = std::move(overrides);
+  return std::nullopt;
 }
 
 }  // namespace fuse::query_tool

@@ -1,17 +1,11 @@
-// Command line of fuse-query.
+// Command line of fuse-query (CLI11, the convention of every binary: fuse/cli/cli.hpp).
 #pragma once
 
-#include <stdexcept>
+#include <optional>
 #include <string>
 #include <vector>
 
 namespace fuse::query_tool {
-
-/// A command line that cannot be used; main prints it with the usage and exits with 2.
-class ArgumentError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
 
 struct Arguments {
   bool latest = true;  ///< --latest (the default) or --time T
@@ -19,14 +13,11 @@ struct Arguments {
   bool json = false;
   int deadline_ms = 1000;
   std::string config_file;             ///< optional: its `transport:` section
-  std::vector<std::string> overrides;  ///< --set dotted.key=value, in order
-  bool help = false;
+  std::vector<std::string> overrides;  ///< --domain, --vendor, then --set dotted.key=value, in order
 };
 
-/// Parses argv[1..]; throws ArgumentError naming the offending argument.
-Arguments parse_arguments(const std::vector<std::string>& args);
-
-/// The --help text.
-std::string usage();
+/// Parses and checks argv into `a`. std::nullopt: go on; otherwise the exit code to end with
+/// (0 after --help / --version, 2 after a usage error, printed naming the flag).
+std::optional<int> parse_arguments(int argc, char** argv, Arguments& a);
 
 }  // namespace fuse::query_tool

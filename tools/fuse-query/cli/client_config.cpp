@@ -10,14 +10,7 @@ namespace fuse::query_tool {
 namespace {
 YAML::Node load_yaml(const std::string& file) {
   if (file.empty()) return YAML::Node(YAML::NodeType::Map);
-  try {
-    YAML::Node root = YAML::LoadFile(file);
-    return root.IsNull() ? YAML::Node(YAML::NodeType::Map) : root;
-  } catch (const YAML::BadFile&) {
-    throw ConfigError("cannot open config file '" + file + "'");
-  } catch (const YAML::ParserException& e) {
-    throw ConfigError("config file '" + file + "' is not valid YAML: " + e.what());
-  }
+  return load_yaml_file(file, {});  // an empty file, or one that is not a map of sections, is refused
 }
 
 /// Sets node[parts[i]][parts[i+1]]... = value, creating maps on the way. (A YAML::Node is passed

@@ -1,6 +1,7 @@
 // fuse-query: asks the running estimator for the state at a time.
 //
 //   fuse-query [--time T | --latest] [--json] [--deadline-ms N] [--config FILE] [--set key=value]...
+//              [--domain N] [--vendor V]        (--help lists them; --version)
 //
 // Prints the pose, velocity, covariance diagonals, time and status (or one JSON object).
 // Exit codes: 0 a pose to steer by, 2 usage or config, 3 error reply (out of range, not tracking,
@@ -43,17 +44,10 @@ int main(int argc, char** argv) {
   using namespace fuse::query_tool;
   Arguments args;
   fuse::query::ClientOptions options;
+  if (const std::optional<int> code = parse_arguments(argc, argv, args)) return *code;
   try {
-    args = parse_arguments(std::vector<std::string>(argv + 1, argv + argc));
-    if (args.help) {
-      std::cout << usage();
-      return kExitAnswered;
-    }
     options = load_client_options(args.config_file, args.overrides);
     options.deadline_ms = args.deadline_ms;
-  } catch (const ArgumentError& e) {
-    std::cerr << "fuse-query: " << e.what() << "\n" << usage();
-    return kExitUsage;
   } catch (const std::exception& e) {
     std::cerr << "fuse-query: config error: " << e.what() << "\n";
     return kExitUsage;
