@@ -5,6 +5,9 @@
 #include <cerrno>
 #include <cstdlib>
 #include <filesystem>
+#include <stdexcept>
+
+#include "fuse/cli/cli.hpp"
 
 #include "fuse/core/config.hpp"
 
@@ -16,7 +19,7 @@ int parse_deadline(const std::string& name, const std::string& text) {
   errno = 0;
   const long v = std::strtol(text.c_str(), &end, 10);
   if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE || v <= 0 || v > 3'600'000) {
-    throw ArgumentError(name + ": '" + text + "' is not a positive number of milliseconds");
+    throw std::invalid_argument(name + ": '" + text + "' is not a positive number of milliseconds");
   }
   return static_cast<int>(v);
 }
@@ -43,78 +46,60 @@ void apply_override(YAML::Node root, const std::string& assignment) {
 }
 }  // namespace
 
-Arguments parse_arguments(const std::vector<std::string>& args) {
-  Arguments a;
-  std::string domain, vendor;
-  auto set_command = [&](Command c, const std::string& arg) {
-    if (a.command != Command::kNone) throw ArgumentError("'" + arg + "': give one command only");
-    a.command = c;
-  };
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    const std::string& arg = args[i];
-    auto value = [&]() -> const std::string& {
-      if (i + 1 >= args.size()) throw ArgumentError(arg + " needs a value");
-      return args[++i];
-    };
-    auto has_operand = [&] { return i + 1 < args.size() && args[i + 1].rfind("--", 0) != 0; };
-    if (arg == "--help" || arg == "-h") {
-      a.help = true;
-    } else if (arg == "--json") {
-      a.json = true;
-    } else if (arg == "--deadline-ms") {
-      a.deadline_ms = parse_deadline(arg, value());
-    } else if (arg == "--config") {
-      a.config_file = value();
-    } else if (arg == "--set") {
-      a.overrides.push_back(value());
-    } else if (arg == "--domain") {
-      domain = value();
-    } else if (arg == "--vendor") {
-      vendor = value();
-    } else if (arg == "--mode") {
-      set_command(Command::kSetMode, arg);
-      a.mode = value();
-      if (a.mode != "mapping" && a.mode != "localization") {
-        throw ArgumentError("--mode: '" + a.mode + "' is not mapping or localization");
-      }
-    } else if (arg == "stats") {
-      set_command(Command::kStats, arg);
-    } else if (arg == "save") {
-      set_command(Command::kSave, arg);
-      if (has_operand()) a.file = args[++i];
-    } else if (arg == "load") {
-      set_command(Command::kLoad, arg);
-      if (!has_operand()) throw ArgumentError("load needs a snapshot FILE");
-      a.file = args[++i];
-    } else {
-      throw ArgumentError("unknown argument '" + arg + "'");
-    }
+std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
+  const auto app = cli::make_app(
+      "fuse-map-ctl",
+      "Controls the running map server (fuse-map) through its map/control service: one command, --mode M, "
+      "save [FILE], load FILE or stats; prints the map's state after it (or one JSON object).",
+      "Exit codes: 0 done, 2 usage or config, 3 error reply, 4 no server answered before the deadline.");
+  std::string deadline, vendor;
+  std::optional<int> domain;
+  app->add_option("--mode", a.mode, "mapping (observations change the map) or localization (the map is frozen)")
+      ->type_name("M")
+      ->check(CLI::IsMember({"mapping", "localization"}));
+  app->add_option("--config", a.config_file, "a FUSE config; only its transport: section is read (default: domain 0)")
+      ->type_name("FILE");
+  app->add_option("--set", a.overrides, "override a config value (repeatable), e.g. --set transport.domain_id=7")
+      ->type_name("KEY=VALUE")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  app->add_option("--domain", domain, "DDS domain id: --set transport.domain_id=N")->type_name("N");
+  app->add_option("--vendor", vendor, "DDS implementation, fastdds or cyclonedds: --set transport.vendor=V")
+      ->type_name("V");
+  app->add_option("--deadline-ms", deadline, "give up after N ms without a reply (default 5000)")->type_name("N");
+  app->add_flag("--json", a.json, "print one JSON object");
+  app->fallthrough();  // before the commands, which inherit it: the options may also follow them
+  CLI::App* stats = app->add_subcommand(
+      "stats",
+      "state (running | degraded, and why), mode, epoch, points, chunks, acknowledged sequence, journal records "
+      "and write errors, observations pending in memory and dropped, damage skipped at load, and the "
+      "acknowledged sequence of each recently active session");
+  CLI::App* save = app->add_subcommand("save", "a snapshot into the map directory, or into FILE (prints the path)");
+  save->add_option("FILE", a.file, "snapshot file");
+  CLI::App* load = app->add_subcommand("load", "replaces the map by a snapshot file's (the epoch increases)");
+  load->add_option("FILE", a.file, "snapshot file")->required();
+  app->require_subcommand(0, 1);
+  if (const std::optional<int> code = cli::parse(*app, argc, argv)) return code;
+
+  const int commands = (app->count("--mode") > 0 ? 1 : 0) + (stats->parsed() ? 1 : 0) + (save->parsed() ? 1 : 0) +
+                       (load->parsed() ? 1 : 0);
+  if (commands == 0) return cli::usage_error(*app, "no command (--mode, save, load or stats)");
+  if (commands > 1) return cli::usage_error(*app, "give one command only (--mode, save, load or stats)");
+  a.command = app->count("--mode") > 0 ? Command::kSetMode
+              : stats->parsed()        ? Command::kStats
+              : save->parsed()         ? Command::kSave
+                                       : Command::kLoad;
+  try {
+    if (!deadline.empty()) a.deadline_ms = parse_deadline("--deadline-ms", deadline);
+  } catch (const std::invalid_argument& e) {
+    return cli::usage_error(*app, e.what());
   }
-  if (a.help) return a;
-  if (a.command == Command::kNone) throw ArgumentError("no command (--mode, save, load or stats)");
+  if (a.file.size() > 1023) return cli::usage_error(*app, "FILE: the path is longer than 1023 characters");
   if (!a.file.empty()) a.file = std::filesystem::absolute(a.file).lexically_normal().string();
   // After every --set: the explicit options win.
-  if (!domain.empty()) a.overrides.push_back("transport.domain_id=" + domain);
+  if (domain) a.overrides.push_back("transport.domain_id=" + std::to_string(*domain));
   if (!vendor.empty()) a.overrides.push_back("transport.vendor=" + vendor);
-  return a;
-}
-
-std::string usage() {
-  return "usage: fuse-map-ctl [--config FILE] [--set key=value]... [--domain N] [--vendor fastdds|cyclonedds]\n"
-         "                    [--deadline-ms N] [--json]\n"
-         "                    (--mode mapping|localization | save [FILE] | load FILE | stats)\n"
-         "  Controls the running map server (fuse-map) through its map/control service.\n"
-         "  --mode M:   mapping (observations change the map) or localization (the map is frozen)\n"
-         "  save [FILE]: a snapshot into the map directory, or into FILE (prints the path written)\n"
-         "  load FILE:  replaces the map by a snapshot file's (the epoch increases)\n"
-         "  stats:      state (running | degraded, and why), mode, epoch, points, chunks, acknowledged\n"
-         "              sequence, journal records and write errors, observations pending in memory\n"
-         "              (not journaled yet) and dropped, damage skipped at load, and the acknowledged\n"
-         "              sequence of each recently active session\n"
-         "  --config:   a FUSE config; only its transport: section is read (default: domain 0)\n"
-         "  --deadline-ms N: give up after N ms without a reply (default 5000)\n"
-         "  --json:     print one JSON object\n"
-         "  exit codes: 0 done, 2 usage or config, 3 error reply, 4 no server answered before the deadline\n";
+  return std::nullopt;
 }
 
 transport::TransportConfig load_transport_config(const std::string& file, const std::vector<std::string>& overrides) {

@@ -1,19 +1,13 @@
 // Command line of fuse-map-ctl, and the transport settings it joins the services with.
 #pragma once
 
-#include <stdexcept>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "fuse/transport/transport.hpp"
 
 namespace fuse::map_ctl {
-
-/// A command line that cannot be used; main prints it with the usage and exits with 2.
-class ArgumentError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
 
 enum class Command { kNone, kStats, kSetMode, kSave, kLoad };
 
@@ -25,14 +19,12 @@ struct Arguments {
   std::vector<std::string> overrides;  ///< --set dotted.key=value in order, then --domain, --vendor
   int deadline_ms = 5000;
   bool json = false;
-  bool help = false;
 };
 
-/// Parses argv[1..]; throws ArgumentError naming the offending argument.
-Arguments parse_arguments(const std::vector<std::string>& args);
-
-/// The --help text.
-std::string usage();
+/// Parses and checks argv into `a` (CLI11, the convention of every binary: fuse/cli/cli.hpp).
+/// std::nullopt: go on; otherwise the exit code to end with (0 after --help / --version, 2 after
+/// a usage error, printed naming the flag).
+std::optional<int> parse_arguments(int argc, char** argv, Arguments& a);
 
 /// The `transport:` section of `file` (none: the defaults, domain 0) with the overrides applied;
 /// the file's other sections are not read. Throws fuse::ConfigError.

@@ -1,7 +1,7 @@
 // fuse-map-ctl: controls the running map server through its map/control service.
 //
 //   fuse-map-ctl [--config FILE] [--set key=value]... [--domain N] [--vendor V] [--deadline-ms N]
-//                [--json] (--mode mapping|localization | save [FILE] | load FILE | stats)
+//                [--json] (--mode mapping|localization | save [FILE] | load FILE | stats)   (--help; --version)
 //
 // Prints the map's state after the command (or one JSON object, errors included).
 // Exit codes: 0 done, 2 usage or config, 3 error reply, 4 no server answered before the deadline.
@@ -48,17 +48,9 @@ int main(int argc, char** argv) {
   using Client = fuse::transport::RpcClient<fuse_msgs::MapControlRequest, fuse_msgs::MapControlReply>;
   Arguments args;
   fuse::transport::TransportConfig transport;
+  if (const std::optional<int> code = parse_arguments(argc, argv, args)) return *code;
   try {
-    args = parse_arguments(std::vector<std::string>(argv + 1, argv + argc));
-    if (args.help) {
-      std::cout << usage();
-      return kExitDone;
-    }
     transport = load_transport_config(args.config_file, args.overrides);
-    if (args.file.size() > 1023) throw ArgumentError("FILE: the path is longer than 1023 characters");
-  } catch (const ArgumentError& e) {
-    std::cerr << "fuse-map-ctl: " << e.what() << "\n" << usage();
-    return kExitUsage;
   } catch (const std::exception& e) {
     std::cerr << "fuse-map-ctl: config error: " << e.what() << "\n";
     return kExitUsage;

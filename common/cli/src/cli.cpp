@@ -10,6 +10,8 @@ std::unique_ptr<CLI::App> make_app(const std::string& name, const std::string& d
                                    const std::string& footer) {
   auto app = std::make_unique<CLI::App>(description, name);
   app->set_version_flag("--version", version_line(name));
+  // An option given twice: the later one wins (repeatable ones, like --set, say TakeAll).
+  app->option_defaults()->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
   if (!footer.empty()) app->footer(footer);
   return app;
 }
