@@ -7,6 +7,8 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include "fuse/cli/cli.hpp"
+
 namespace fuse::launch_tool {
 
 namespace {
@@ -31,54 +33,61 @@ double parse_rate(const std::string& text) {
 }
 }  // namespace
 
-Arguments parse_arguments(const std::vector<std::string>& args) {
-  Arguments a;
+std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
   launch::LaunchOptions& o = a.launch;
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    const std::string& arg = args[i];
-    auto value = [&]() -> const std::string& {
-      if (i + 1 >= args.size()) throw ArgumentError(arg + " needs a value");
-      return args[++i];
-    };
-    if (arg == "--help" || arg == "-h") {
-      a.help = true;
-    } else if (arg == "--config") {
-      o.config_file = value();
-    } else if (arg == "--input") {
-      o.input = value();
-    } else if (arg == "--mode") {
-      o.mode = value();
-      if (o.mode != "lockstep" && o.mode != "realtime") throw ArgumentError("--mode: '" + o.mode + "' is not lockstep or realtime");
-    } else if (arg == "--rate") {
-      o.rate = parse_rate(value());
-    } else if (arg == "--out") {
-      o.out_dir = value();
-    } else if (arg == "--map-dir") {
-      o.map_dir = value();
-    } else if (arg == "--domain") {
-      o.domain_id = static_cast<int>(parse_int(arg, value(), 0, 101));
-    } else if (arg == "--vendor") {
-      o.vendor = value();
-      if (o.vendor != "fastdds" && o.vendor != "cyclonedds") throw ArgumentError("--vendor: '" + o.vendor + "' is not fastdds or cyclonedds");
-    } else if (arg == "--set") {
-      o.overrides.push_back(value());
-      if (o.overrides.back().find('=') == std::string::npos) throw ArgumentError("--set: '" + o.overrides.back() + "' is not key=value");
-    } else if (arg == "--bin-dir") {
-      o.bin_dir = value();
-    } else if (arg == "--restart") {
-      o.restart = true;
-    } else if (arg == "--max-restarts") {
-      a.max_restarts = static_cast<int>(parse_int(arg, value(), 0, 1000));
-    } else if (arg == "--stop-timeout-ms") {
-      a.timing.stop_timeout = std::chrono::milliseconds(parse_int(arg, value(), 1, 600'000));
-    } else if (arg == "--settle-ms") {
-      a.timing.settle = std::chrono::milliseconds(parse_int(arg, value(), 0, 600'000));
-    } else {
-      throw ArgumentError("unknown argument '" + arg + "'");
+  const auto app = cli::make_app(
+      "fuse-launch",
+      "Starts fuse-map, fuse-state, fuse-update, then fuse-ingest replaying PATH; when the replay is done, stops "
+      "the others (the last started first; SIGKILL after --stop-timeout-ms). Watches the bus and ends with a "
+      "summary of restarts, data gaps, counters and what was lost.",
+      "Exit codes: 0 every service did its part and nothing was lost, 1 a service failed (its last error line is "
+      "printed), 2 usage or config, 3 the run lost something (named in the summary).");
+  std::string rate, domain, max_restarts, stop_timeout, settle;
+  app->add_option("--config", o.config_file, "the system config, passed to every service")->type_name("FILE")->required();
+  app->add_option("--input", o.input, "the recording or sequence directory fuse-ingest replays")
+      ->type_name("PATH")
+      ->required();
+  app->add_option("--mode", o.mode, "replay pace (default lockstep)")
+      ->type_name("lockstep|realtime")
+      ->check(CLI::IsMember({"lockstep", "realtime"}));
+  app->add_option("--rate", rate, "replay speed factor, > 0 (realtime)")->type_name("R");
+  app->add_option("--out", o.out_dir, "logs/<service>.log, trajectory.tum, map/ (default fuse_out)")->type_name("DIR");
+  app->add_option("--map-dir", o.map_dir, "fuse-map's map directory (default OUT/map)")->type_name("DIR");
+  app->add_option("--domain", domain, "DDS domain id 0..101, passed to every service")->type_name("N");
+  app->add_option("--vendor", o.vendor, "DDS implementation, passed to every service")
+      ->type_name("fastdds|cyclonedds")
+      ->check(CLI::IsMember({"fastdds", "cyclonedds"}));
+  app->add_option("--set", o.overrides, "a config override for every service (repeatable)")
+      ->type_name("KEY=VALUE")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  app->add_option("--bin-dir", o.bin_dir, "where the service binaries are (default: the launcher's own directory)")
+      ->type_name("DIR");
+  app->add_flag("--restart", o.restart,
+                "restart a service that dies unexpectedly (backoff 250 ms, doubling over early deaths; fuse-ingest "
+                "only in realtime mode); not one that exits 2 or 4");
+  app->add_option("--max-restarts", max_restarts, "restarts in a row before giving up, 0..1000 (default 5)")
+      ->type_name("N");
+  app->add_option("--stop-timeout-ms", stop_timeout, "SIGKILL a service this long after SIGTERM (default 5000)")
+      ->type_name("N");
+  app->add_option("--settle-ms", settle, "pause between starting the services and fuse-ingest (default 500)")
+      ->type_name("N");
+  if (const std::optional<int> code = cli::parse(*app, argc, argv)) return code;
+  try {
+    if (!rate.empty()) o.rate = parse_rate(rate);
+    if (!domain.empty()) o.domain_id = static_cast<int>(parse_int("--domain", domain, 0, 101));
+    if (!max_restarts.empty()) a.max_restarts = static_cast<int>(parse_int("--max-restarts", max_restarts, 0, 1000));
+    if (!stop_timeout.empty()) {
+      a.timing.stop_timeout = std::chrono::milliseconds(parse_int("--stop-timeout-ms", stop_timeout, 1, 600'000));
     }
+    if (!settle.empty()) a.timing.settle = std::chrono::milliseconds(parse_int("--settle-ms", settle, 0, 600'000));
+    for (const std::string& set : o.overrides) {
+      if (set.find('=') == std::string::npos) throw ArgumentError("--set: '" + set + "' is not key=value");
+    }
+  } catch (const ArgumentError& e) {
+    return cli::usage_error(*app, e.what());
   }
-  if (!a.help && (o.config_file.empty() || o.input.empty())) throw ArgumentError("--config and --input are required");
-  return a;
+  return std::nullopt;
 }
 
 void check_paths(const launch::LaunchPlan& plan, const launch::LaunchOptions& options) {
@@ -90,21 +99,6 @@ void check_paths(const launch::LaunchPlan& plan, const launch::LaunchOptions& op
       throw ArgumentError("service binary '" + s.argv.front() + "' is missing or not executable (see --bin-dir)");
     }
   }
-}
-
-std::string usage() {
-  return "usage: fuse-launch --config FILE --input PATH [--mode lockstep|realtime] [--rate R] [--out DIR]\n"
-         "                   [--map-dir DIR] [--domain N] [--vendor fastdds|cyclonedds] [--set key=value]...\n"
-         "                   [--bin-dir DIR] [--restart] [--max-restarts N] [--stop-timeout-ms N] [--settle-ms N]\n"
-         "  Starts fuse-map, fuse-state, fuse-update, then fuse-ingest replaying PATH; when the replay is\n"
-         "  done, stops the others (the last started first; SIGKILL after --stop-timeout-ms, default 5000).\n"
-         "  --out:      logs/<service>.log, trajectory.tum, map/ (default: fuse_out)\n"
-         "  --domain, --vendor, --set: passed to every service as --set overrides\n"
-         "  --bin-dir:  where the service binaries are (default: the launcher's own directory)\n"
-         "  --restart:  restart a service that dies unexpectedly (backoff 250 ms, doubling;\n"
-         "              at most --max-restarts, default 5); fuse-ingest only in realtime mode\n"
-         "  --settle-ms: pause between starting the services and fuse-ingest (default 500)\n"
-         "  exit codes: 0 every service did its part and stopped cleanly, 1 a service failed, 2 usage\n";
 }
 
 }  // namespace fuse::launch_tool

@@ -1,6 +1,7 @@
 // Command line of fuse-launch.
 #pragma once
 
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -20,16 +21,15 @@ struct Arguments {
   launch::LaunchOptions launch;  ///< bin_dir empty: the launcher's own directory
   launch::LaunchTiming timing;
   int max_restarts = 5;
-  bool help = false;
 };
 
-/// Parses argv[1..]; throws ArgumentError naming the offending argument.
-Arguments parse_arguments(const std::vector<std::string>& args);
+/// Parses and checks argv into `a` (CLI11, the convention of every binary: fuse/cli/cli.hpp).
+/// std::nullopt: go on; otherwise the exit code to end with (0 after --help / --version, 2 after
+/// a usage error, printed naming the flag).
+std::optional<int> parse_arguments(int argc, char** argv, Arguments& a);
 
 /// Refuses what would fail only after the services started: a missing config, input or binary.
 void check_paths(const launch::LaunchPlan& plan, const launch::LaunchOptions& options);
 
-/// The --help text.
-std::string usage();
 
 }  // namespace fuse::launch_tool

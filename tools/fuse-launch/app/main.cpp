@@ -51,18 +51,14 @@ int main(int argc, char** argv) {
   launch_tool::Arguments args;
   launch::LaunchPlan plan;
   service::SystemConfig config;
+  if (const std::optional<int> code = launch_tool::parse_arguments(argc, argv, args)) return *code;
   try {
-    args = launch_tool::parse_arguments(std::vector<std::string>(argv + 1, argv + argc));
-    if (args.help) {
-      std::cout << launch_tool::usage();
-      return kExitOk;
-    }
     if (args.launch.bin_dir.empty()) args.launch.bin_dir = own_directory(argv[0]);
     const double start_wall = unix_now() + std::chrono::duration<double>(args.timing.settle).count() + kReplayLeadSeconds;
     plan = launch::make_launch_plan(args.launch, start_wall);
     launch_tool::check_paths(plan, args.launch);
   } catch (const std::exception& e) {
-    std::cerr << "fuse-launch: " << e.what() << "\n" << launch_tool::usage();
+    std::cerr << "fuse-launch: " << e.what() << "\n";
     return kExitUsage;
   }
   try {  // the services' own config, checked before any of them starts (they would refuse it too)
