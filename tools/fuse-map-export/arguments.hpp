@@ -2,7 +2,6 @@
 #pragma once
 
 #include <optional>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -10,11 +9,6 @@
 
 namespace fuse::map_export {
 
-/// A command line that cannot be used; main prints it with the usage and exits with 2.
-class ArgumentError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
 
 struct Arguments {
   std::string map_dir;        ///< --map: snapshot + journal of a map directory
@@ -22,16 +16,15 @@ struct Arguments {
   std::string config_file;    ///< --config: map server settings used to replay a journal
   CloudFormat format = CloudFormat::kPcd;
   std::string out;
-  bool help = false;
 };
 
-/// Parses argv[1..]; throws ArgumentError naming the offending argument.
-Arguments parse_arguments(const std::vector<std::string>& args);
+/// Parses and checks argv into `a` (CLI11, the convention of every binary: fuse/cli/cli.hpp).
+/// std::nullopt: go on; otherwise the exit code to end with (0 after --help / --version, 2 after
+/// a usage error, printed naming the flag).
+std::optional<int> parse_arguments(int argc, char** argv, Arguments& a);
 
 /// The format a file name's extension names (.pcd, .ply, any case); unset for another.
 std::optional<CloudFormat> format_of_extension(const std::string& file);
 
-/// The --help text.
-std::string usage();
 
 }  // namespace fuse::map_export

@@ -71,16 +71,7 @@ int from_directory(const fuse::map_export::Arguments& args) {
 
 int main(int argc, char** argv) {
   fuse::map_export::Arguments args;
-  try {
-    args = fuse::map_export::parse_arguments(std::vector<std::string>(argv + 1, argv + argc));
-  } catch (const std::exception& e) {
-    std::cerr << "fuse-map-export: " << e.what() << "\n" << fuse::map_export::usage();
-    return kExitBadInput;
-  }
-  if (args.help) {
-    std::cout << fuse::map_export::usage();
-    return kExitOk;
-  }
+  if (const std::optional<int> code = fuse::map_export::parse_arguments(argc, argv, args)) return *code;
   try {
     fuse::set_log_level("warn");
     return args.snapshot_file.empty() ? from_directory(args) : from_snapshot(args);
