@@ -1,6 +1,7 @@
 // fuse-run: single-process offline runner.
 //
 //   fuse-run --config FILE --input INPUT --out DIR [--set key=value]... [--log-level LEVEL]
+//            [--load-map SNAPSHOT] [--save-map SNAPSHOT]      (--help lists them; --version)
 //
 // INPUT is an MCAP recording (file) or a sequence directory (folder). A calib.yaml in a sequence
 // directory (or the calibration record of a recording) overrides the config's extrinsic.
@@ -13,69 +14,41 @@
 // estimator.tracking.max_lost_s (the reason is printed).
 #include <iomanip>
 #include <iostream>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "fuse/cli/cli.hpp"
 #include "fuse/core/logging.hpp"
 #include "runner.hpp"
 
 namespace {
 constexpr int kExitInput = 1, kExitUsage = 2, kExitDiverged = 3;
-
-void usage(std::ostream& os) {
-  os << "usage: fuse-run --config FILE --input INPUT --out DIR [--set key=value]... [--log-level LEVEL]\n"
-        "                [--load-map SNAPSHOT] [--save-map SNAPSHOT]\n"
-        "  INPUT: MCAP recording or sequence directory\n"
-        "  --set: override a config value, e.g. --set estimator.preprocess.deskew=false\n";
-}
 }  // namespace
 
 int main(int argc, char** argv) {
   std::string config_file, input, out_dir, level = "info", load_map, save_map;
   std::vector<std::string> overrides;
-  std::vector<std::string> args(argv + 1, argv + argc);
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    auto value = [&](const char* name) -> const std::string* {
-      if (i + 1 >= args.size()) {
-        std::cerr << "fuse-run: " << name << " needs a value\n";
-        return nullptr;
-      }
-      return &args[++i];
-    };
-    const std::string* v = nullptr;
-    if (a == "--help" || a == "-h") {
-      usage(std::cout);
-      return 0;
-    } else if (a == "--config" && (v = value("--config"))) {
-      config_file = *v;
-    } else if (a == "--input" && (v = value("--input"))) {
-      input = *v;
-    } else if (a == "--out" && (v = value("--out"))) {
-      out_dir = *v;
-    } else if (a == "--set" && (v = value("--set"))) {
-      overrides.push_back(*v);
-    } else if (a == "--log-level" && (v = value("--log-level"))) {
-      level = *v;
-    } else if (a == "--load-map" && (v = value("--load-map"))) {
-      load_map = *v;
-    } else if (a == "--save-map" && (v = value("--save-map"))) {
-      save_map = *v;
-    } else {
-      if (v == nullptr && (a == "--config" || a == "--input" || a == "--out" || a == "--set" || a == "--log-level" ||
-                           a == "--load-map" || a == "--save-map")) {
-        return kExitUsage;
-      }
-      std::cerr << "fuse-run: unknown argument '" << a << "'\n";
-      usage(std::cerr);
-      return kExitUsage;
-    }
-  }
-  if (config_file.empty() || input.empty() || out_dir.empty()) {
-    std::cerr << "fuse-run: --config, --input and --out are required\n";
-    usage(std::cerr);
-    return kExitUsage;
-  }
+  const auto app = fuse::cli::make_app(
+      "fuse-run",
+      "Single-process offline runner: the estimator on an MCAP recording or a sequence directory (its "
+      "calibration overrides the config's extrinsic). Writes DIR/trajectory.tum (IMU pose at scan ends), "
+      "trajectory_imu.tum, timing.csv and diagnostics.csv; prints per-scan time mean / P95 / max and the "
+      "tracking status.",
+      "Exit codes: 0 finished, 1 input error or an output directory that cannot be created, 2 bad arguments or "
+      "config, 3 the run diverged (the estimator gave up, or was lost at the end or for longer than "
+      "estimator.tracking.max_lost_s).");
+  app->add_option("--config", config_file, "the system config (YAML)")->type_name("FILE")->required();
+  app->add_option("--input", input, "MCAP recording or sequence directory")->type_name("INPUT")->required();
+  app->add_option("--out", out_dir, "output directory")->type_name("DIR")->required();
+  app->add_option("--set", overrides, "override a config value (repeatable), e.g. --set estimator.preprocess.deskew=false")
+      ->type_name("KEY=VALUE")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  app->add_option("--log-level", level, "trace|debug|info|warn|error (default info)")->type_name("L");
+  app->add_option("--load-map", load_map, "start from this map snapshot")->type_name("SNAPSHOT");
+  app->add_option("--save-map", save_map, "write the map to this snapshot at the end")->type_name("SNAPSHOT");
+  if (const std::optional<int> code = fuse::cli::parse(*app, argc, argv)) return *code;
   try {
     fuse::set_log_level(level);
   } catch (const std::exception& e) {
