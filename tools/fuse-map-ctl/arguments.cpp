@@ -52,20 +52,13 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
       "Controls the running map server (fuse-map) through its map/control service: one command, --mode M, "
       "save [FILE], load FILE or stats; prints the map's state after it (or one JSON object).",
       "Exit codes: 0 done, 2 usage or config, 3 error reply, 4 no server answered before the deadline.");
-  std::string deadline, vendor;
-  std::optional<int> domain;
+  std::string deadline;
   app->add_option("--mode", a.mode, "mapping (observations change the map) or localization (the map is frozen)")
       ->type_name("M")
       ->check(CLI::IsMember({"mapping", "localization"}));
   app->add_option("--config", a.config_file, "a FUSE config; only its transport: section is read (default: domain 0)")
       ->type_name("FILE");
-  app->add_option("--set", a.overrides, "override a config value (repeatable), e.g. --set transport.domain_id=7")
-      ->type_name("KEY=VALUE")
-      ->expected(1)
-      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
-  app->add_option("--domain", domain, "DDS domain id: --set transport.domain_id=N")->type_name("N");
-  app->add_option("--vendor", vendor, "DDS implementation, fastdds or cyclonedds: --set transport.vendor=V")
-      ->type_name("V");
+  const cli::TransportFlags transport(*app);
   app->add_option("--deadline-ms", deadline, "give up after N ms without a reply (default 5000)")->type_name("N");
   app->add_flag("--json", a.json, "print one JSON object");
   app->fallthrough();  // before the commands, which inherit it: the options may also follow them
@@ -97,8 +90,9 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
   if (a.file.size() > 1023) return cli::usage_error(*app, "FILE: the path is longer than 1023 characters");
   if (!a.file.empty()) a.file = std::filesystem::absolute(a.file).lexically_normal().string();
   // After every --set: the explicit options win.
-  if (domain) a.overrides.push_back("transport.domain_id=" + std::to_string(*domain));
-  if (!vendor.empty()) a.overrides.push_back("transport.vendor=" + vendor);
+  a.overrides = transport.sets();
+  const std::vector<std::string> shorthands = transport.shorthands();
+  a.overrides.insert(a.overrides.end(), shorthands.begin(), shorthands.end());
   return std::nullopt;
 }
 

@@ -44,4 +44,28 @@ int usage_error(const CLI::App& app, const std::string& message) {
   return kExitUsage;
 }
 
+TransportFlags::TransportFlags(CLI::App& app) {
+  app.add_option("--set", sets_, "override a config value (repeatable), e.g. --set transport.domain_id=7")
+      ->type_name("KEY=VALUE")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  app.add_option("--domain", domain_, "DDS domain id: --set transport.domain_id=N")->type_name("N");
+  app.add_option("--vendor", vendor_, "DDS implementation, fastdds or cyclonedds: --set transport.vendor=V")
+      ->type_name("V")
+      ->check(CLI::IsMember({"fastdds", "cyclonedds"}));
+}
+
+std::vector<std::string> TransportFlags::shorthands() const {
+  std::vector<std::string> out;
+  if (domain_) out.push_back("transport.domain_id=" + std::to_string(*domain_));
+  if (!vendor_.empty()) out.push_back("transport.vendor=" + vendor_);
+  return out;
+}
+
+std::vector<std::string> TransportFlags::overrides() const {
+  std::vector<std::string> out = shorthands();
+  out.insert(out.end(), sets_.begin(), sets_.end());
+  return out;
+}
+
 }  // namespace fuse::cli

@@ -28,16 +28,7 @@ std::optional<int> parse_args(const ServiceCli& cli, int argc, char** argv, Serv
   app->add_option("--config", args.config_file, "the system config (YAML), validated at start-up")
       ->type_name("FILE")
       ->required();
-  app->add_option("--set", args.overrides, "override one config key (repeatable), e.g. --set transport.domain_id=7")
-      ->type_name("KEY=VALUE")
-      ->expected(1)
-      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
-  std::optional<int> domain;
-  std::string vendor;
-  app->add_option("--domain", domain, "DDS domain id: --set transport.domain_id=N")->type_name("N");
-  app->add_option("--vendor", vendor, "DDS implementation, fastdds or cyclonedds: --set transport.vendor=V")
-      ->type_name("V")
-      ->check(CLI::IsMember({"fastdds", "cyclonedds"}));
+  const cli::TransportFlags transport(*app);
   app->add_option("--log-level", args.log_level, "trace|debug|info|warn|error (default info)")->type_name("L");
   std::map<std::string, std::string> own;
   for (const OptionSpec& o : cli.options) {
@@ -47,11 +38,7 @@ std::optional<int> parse_args(const ServiceCli& cli, int argc, char** argv, Serv
   for (const OptionSpec& o : cli.options) {
     if (app->count("--" + o.name) > 0) args.options[o.name] = own[o.name];
   }
-  std::vector<std::string> overrides;
-  if (domain) overrides.push_back("transport.domain_id=" + std::to_string(*domain));
-  if (!vendor.empty()) overrides.push_back("transport.vendor=" + vendor);
-  overrides.insert(overrides.end(), args.overrides.begin(), args.overrides.end());
-  args.overrides = std::move(overrides);
+  args.overrides = transport.overrides();
   return std::nullopt;
 }
 

@@ -38,21 +38,13 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
       "Exit codes: 0 a pose to steer by, 2 usage or config, 3 an answer that is not one (outside the history, "
       "relocalizing, lost, not ready, error reply), 4 no reply (unavailable).");
   std::string time;
-  std::optional<int> domain;
-  std::string vendor;
   std::string deadline;
   app->add_option("--time", time, "the sensor time to ask for")->type_name("T");
   app->add_flag("--latest", "the latest estimate (the default)");
   app->add_flag("--json", a.json, "print one JSON object");
   app->add_option("--deadline-ms", deadline, "wait at most N ms for the reply (default 1000)")->type_name("N");
   app->add_option("--config", a.config_file, "a FUSE config; only its transport: section is read")->type_name("FILE");
-  app->add_option("--set", a.overrides, "override a config value (repeatable), e.g. --set transport.domain_id=7")
-      ->type_name("KEY=VALUE")
-      ->expected(1)
-      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
-  app->add_option("--domain", domain, "DDS domain id: --set transport.domain_id=N")->type_name("N");
-  app->add_option("--vendor", vendor, "DDS implementation, fastdds or cyclonedds: --set transport.vendor=V")
-      ->type_name("V");
+  const cli::TransportFlags transport(*app);
   if (const std::optional<int> code = cli::parse(*app, argc, argv)) return code;
   try {
     if (app->count("--time") > 0) {
@@ -64,11 +56,7 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
   } catch (const std::invalid_argument& e) {
     return cli::usage_error(*app, e.what());
   }
-  std::vector<std::string> overrides;
-  if (domain) overrides.push_back("transport.domain_id=" + std::to_string(*domain));
-  if (!vendor.empty()) overrides.push_back("transport.vendor=" + vendor);
-  overrides.insert(overrides.end(), a.overrides.begin(), a.overrides.end());
-  a.overrides = std::move(overrides);
+  a.overrides = transport.overrides();
   return std::nullopt;
 }
 

@@ -8,6 +8,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace fuse::cli {
 
@@ -20,6 +21,24 @@ std::unique_ptr<CLI::App> make_app(const std::string& name, const std::string& d
 /// Parses argv. std::nullopt: go on. Otherwise the exit code to end with: 0 after --help or
 /// --version (printed), kExitUsage after a usage error ("NAME: what, naming the flag" on stderr).
 std::optional<int> parse(CLI::App& app, int argc, char** argv);
+
+/// --set KEY=VALUE (repeatable), --domain N and --vendor V: the transport options of every binary
+/// that talks DDS. Construct before parsing (it adds the options to `app`), read after.
+class TransportFlags {
+ public:
+  explicit TransportFlags(CLI::App& app);
+  /// The --set values, in order.
+  const std::vector<std::string>& sets() const { return sets_; }
+  /// --domain and --vendor as the overrides transport.domain_id=N and transport.vendor=V.
+  std::vector<std::string> shorthands() const;
+  /// shorthands() then sets(): a --set of the same key wins.
+  std::vector<std::string> overrides() const;
+
+ private:
+  std::vector<std::string> sets_;
+  std::optional<int> domain_;
+  std::string vendor_;
+};
 
 /// A usage error found after parsing (a value that does not check): printed as parse() does.
 int usage_error(const CLI::App& app, const std::string& message);
