@@ -16,6 +16,7 @@ $SUDO apt-get install -y -q --no-install-recommends \
   libgtest-dev libgmock-dev libbenchmark-dev \
   liblz4-dev libzstd-dev libbz2-dev libsqlite3-dev libcli11-dev \
   systemd \
+  pybind11-dev python3-dev dh-python \
   debhelper lintian help2man chrpath dpkg-dev
 # Node.js is only used by the interoperability test (npm packages that read our MCAP files).
 # Some images ship a Node.js build that bundles npm and conflicts with Debian's npm package.

@@ -159,6 +159,7 @@ void StateService::on_imu(const fuse_msgs::ImuSample& msg) {
       return;
     }
     imu_buffer_.push_back(imu);
+    host_clock_.observe_now(imu.t);
     while (imu_buffer_.size() > 2 && imu_buffer_.back().t - imu_buffer_.front().t > config_.state.imu_buffer_s) {
       imu_buffer_.pop_front();
     }
@@ -199,6 +200,11 @@ std::optional<fuse_msgs::StateEstimate> StateService::feed(const ImuSample& imu)
 
 fuse_msgs::StateEstimate StateService::estimate(const StateQuery& q, std::uint64_t sequence) const {
   fuse_msgs::StateEstimate e = to_estimate(q, sequence);
+  if (const std::optional<HostClockOffsets> o = host_clock_.offsets_now()) {
+    e.host_clock_known(true);
+    e.host_realtime_offset(o->realtime);
+    e.host_monotonic_offset(o->monotonic);
+  }
   if (!q.ok()) return e;
   // Position in the world frame as it is; the rotation block is a body-frame perturbation.
   PoseCovariance add = map_drift_;
@@ -412,6 +418,19 @@ void StateService::on_query(const fuse_msgs::QueryRequest& req, fuse_msgs::Query
   const bool have_state = tracker_.initialised();
   const Tracking status = tracking();
   double t = req.t();
+  if (!req.latest() && req.clock() != fuse_msgs::CLOCK_SENSOR) {
+    if (req.clock() != fuse_msgs::CLOCK_HOST_REALTIME && req.clock() != fuse_msgs::CLOCK_HOST_MONOTONIC) {
+      counters_.add("query_bad_request");
+      set_error(fuse_msgs::RPC_BAD_REQUEST, "unknown query clock " + std::to_string(static_cast<int>(req.clock())), rep);
+      return;
+    }
+    const std::optional<HostClockOffsets> o = host_clock_.offsets_now();
+    if (!o) {
+      set_error(fuse_msgs::RPC_NOT_READY, "no host clock mapping yet: no IMU sample has arrived", rep);
+      return;
+    }
+    t -= req.clock() == fuse_msgs::CLOCK_HOST_REALTIME ? o->realtime : o->monotonic;  // t_sensor = t_host − offset
+  }
   if (req.latest()) {
     if (!have_state) {
       rep.estimate().status(status == Tracking::kLost ? fuse_msgs::STATUS_LOST : fuse_msgs::STATUS_NOT_INITIALISED);

@@ -32,6 +32,7 @@
 #include <optional>
 #include <string>
 
+#include "fuse/core/host_clock.hpp"
 #include "fuse/estimation/state_tracker.hpp"
 #include "fuse/service/convert.hpp"
 #include "fuse/service/health.hpp"
@@ -76,6 +77,7 @@ class StateService {
   StateTracker tracker_;
   Counters counters_;
   std::deque<ImuSample> imu_buffer_;  ///< raw IMU of the last state.imu_buffer_s seconds
+  HostClockMap host_clock_;           ///< sensor clock to host clocks, from the IMU's arrivals
   bool live_ = false;                 ///< false during the recovery wait
   std::optional<Posterior> pending_recovery_;
   std::optional<Checkpoint> checkpoint_;  ///< read at start-up

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The Debian packages (debian/, docs/packaging.md), built by debhelper from the tree just built
 # (debian/rules FUSE_PREBUILT), and checked as a vehicle team would meet them:
-#   1. the four packages are built; lintian reports no error and no warning (overrides carry a reason);
+#   1. the five packages are built; lintian reports no error and no warning (overrides carry a reason);
 #   2. no package pulls PCL or VTK (the map export writes PCD and PLY itself); a man page for
 #      every binary;
 #   3. `apt-get -s install ./fuse-slam_*.deb fuse3` resolves (Debian's fuse3 beside us);
@@ -12,7 +12,7 @@
 #   deb_test.sh SOURCE_DIR BUILD_DIR SCRATCH_DIR DEPLOY_DATA DDS_DOMAIN     exit 77: skipped
 set -euo pipefail
 source_dir=$1 build=$2 scratch=$3 data=$4 domain=$5
-for tool in dpkg-buildpackage dh dh_installsysusers lintian help2man chrpath dpkg dpkg-deb; do
+for tool in dpkg-buildpackage dh dh_installsysusers dh_python3 lintian help2man chrpath dpkg dpkg-deb; do
   command -v "$tool" >/dev/null 2>&1 || { echo "SKIPPED: $tool is not installed (scripts/setup-deps.sh installs it)"; exit 77; }
 done
 fail() { echo "FAILED: $*"; exit 1; }
@@ -26,7 +26,7 @@ cp -rL "$source_dir/debian" "$scratch/src/debian"
 version=$(dpkg-parsechangelog -l "$source_dir/debian/changelog" -S Version)
 arch=$(dpkg --print-architecture)
 deb() { echo "$scratch/${1}_${version}_${arch}.deb"; }
-for p in fuse-slam fuse-slam-tools libfuse-slam-query1 libfuse-slam-query-dev; do
+for p in fuse-slam fuse-slam-tools libfuse-slam-query2 libfuse-slam-query-dev python3-fuse-slam; do
   [ -f "$(deb $p)" ] || { ls "$scratch"; fail "$(basename "$(deb $p)") was not built"; }
   echo "built $(basename "$(deb $p)") ($(du -k "$(deb $p)" | cut -f1) KiB)"
 done
@@ -39,10 +39,15 @@ echo "lintian: $(grep -c . "$scratch/lintian.log" || true) line(s), no error or 
 services_depends=$(dpkg-deb --field "$(deb fuse-slam)" Depends)
 echo "fuse-slam Depends: $services_depends"
 if echo "$services_depends" | grep -Eq "libpcl|libvtk"; then fail "fuse-slam depends on PCL or VTK"; fi
-for lib in libfastrtps libddsc libyaml-cpp libprotobuf libfuse-slam-query1; do
+for lib in libfastrtps libddsc libyaml-cpp libprotobuf libfuse-slam-query2; do
   echo "$services_depends" | grep -q "$lib" || fail "fuse-slam's Depends lacks $lib"
 done
 if dpkg-deb --field "$(deb fuse-slam-tools)" Depends | grep -Eq "libpcl|libvtk"; then fail "fuse-slam-tools depends on PCL or VTK"; fi
+python_depends=$(dpkg-deb --field "$(deb python3-fuse-slam)" Depends)
+echo "python3-fuse-slam Depends: $python_depends"
+for dep in "python3 (" libfuse-slam-query2; do
+  echo "$python_depends" | grep -qF "$dep" || fail "python3-fuse-slam's Depends lacks $dep"
+done
 dpkg-deb --info "$(deb fuse-slam)" conffiles | sort | tr '\n' ' ' |
   grep -qx "/etc/fuse-slam/fuse-slam.yaml /etc/fuse-slam/ingest.env " || fail "conffiles are not the config and ingest.env"
 for p in fuse-slam fuse-slam-tools; do
@@ -55,9 +60,9 @@ echo "no package pulls PCL or VTK; a man page for every binary"
 
 # ---- 3. apt resolves us beside Debian's fuse3 --------------------------------------------
 if apt-cache show fuse3 >/dev/null 2>&1; then
-  apt-get -s -q install "$(deb libfuse-slam-query1)" "$(deb fuse-slam)" fuse3 >"$scratch/apt.log" 2>&1 ||
+  apt-get -s -q install "$(deb libfuse-slam-query2)" "$(deb fuse-slam)" "$(deb python3-fuse-slam)" fuse3 >"$scratch/apt.log" 2>&1 ||
     { cat "$scratch/apt.log"; fail "apt-get -s install fuse-slam fuse3 does not resolve"; }
-  echo "apt-get -s install ./fuse-slam ./libfuse-slam-query1 fuse3: resolves"
+  echo "apt-get -s install ./fuse-slam ./libfuse-slam-query2 ./python3-fuse-slam fuse3: resolves"
 else
   echo "SKIPPED (part 3): no apt package lists with fuse3 (apt-get update)"
 fi
@@ -78,7 +83,7 @@ if [ "$(id -u)" -eq 0 ] && command -v systemd-sysusers >/dev/null 2>&1; then
 
   dpkgr() { dpkg --root="$root" --force-script-chrootless --force-depends --log=/dev/null "$@" >>"$scratch/dpkg.log" 2>&1 ||
               { cat "$scratch/dpkg.log"; fail "dpkg $*"; }; }
-  dpkgr -i "$(deb libfuse-slam-query1)" "$(deb fuse-slam)"
+  dpkgr -i "$(deb libfuse-slam-query2)" "$(deb fuse-slam)"
   grep -q "^_fuse-slam:" "$root/etc/passwd" || fail "the user _fuse-slam was not created"
   grep -q "edited on the vehicle" "$root/etc/fuse-slam/fuse-slam.yaml" || fail "the edited old config was not kept"
   [ -f "$root/etc/fuse-slam/fuse-slam.yaml.dpkg-dist" ] || fail "the packaged config was not kept as .dpkg-dist"
@@ -111,7 +116,7 @@ fi
 
 # ---- 5. the unpacked services run -----------------------------------------------------------
 unpacked="$scratch/unpacked"
-for p in fuse-slam libfuse-slam-query1; do dpkg -x "$(deb $p)" "$unpacked"; done
+for p in fuse-slam libfuse-slam-query2 python3-fuse-slam; do dpkg -x "$(deb $p)" "$unpacked"; done
 run_service() {  # name, extra args...
   local name=$1; shift
   local sock="$scratch/$name.notify" log="$scratch/$name.log"
@@ -159,3 +164,14 @@ LD_LIBRARY_PATH="$(dirname "$(find "$unpacked/usr/lib" -name 'libfuse_slam_query
   "$unpacked/usr/bin/fuse-query" --help >"$scratch/query.log" 2>&1 || { cat "$scratch/query.log"; fail "fuse-query --help (unpacked)"; }
 grep -qi "usage" "$scratch/query.log" || { cat "$scratch/query.log"; fail "fuse-query (unpacked) did not run"; }
 echo "fuse-query (unpacked) runs against the unpacked libfuse_slam_query"
+# The Python module loads the unpacked library and asks a (absent) server: unavailable, not a crash.
+LD_LIBRARY_PATH="$(dirname "$(find "$unpacked/usr/lib" -name 'libfuse_slam_query.so.*' | head -1)")" \
+PYTHONPATH="$unpacked/usr/lib/python3/dist-packages" python3 - "$domain" >"$scratch/python.log" 2>&1 <<'PY' ||
+import sys, fuse_slam
+c = fuse_slam.Client(fuse_slam.ClientOptions(domain_id=int(sys.argv[1]), deadline_ms=200))
+r = c.latest()
+assert r.error == fuse_slam.Error.unavailable, r
+print("python3-fuse-slam:", fuse_slam.__file__, r.error.name)
+PY
+  { cat "$scratch/python.log"; fail "the unpacked fuse_slam module"; }
+cat "$scratch/python.log"

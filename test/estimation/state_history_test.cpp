@@ -75,6 +75,22 @@ TEST(StateHistory, InterpolationIsExactForConstantRate) {
   EXPECT_LT(test::rotation_error(q.x.R, so3::Exp(omega * 0.037)), 1e-12);
 }
 
+// The angular velocity answered is the gyro sample held at t minus the gyro bias (ω = ω̃ − b_g),
+// between samples and at the newest one.
+TEST(StateHistory, AngularVelocityIsTheHeldGyroMinusTheBias) {
+  StateHistory h(StateHistoryConfig{}, ImuNoiseConfig{});
+  NavState x0;
+  x0.bg = Eigen::Vector3d(0.01, -0.02, 0.005);
+  h.reset(kT0, x0, initial_P(), imu_at(kT0));
+  for (int k = 1; k <= 5; ++k) h.add_imu(imu_at(kT0 + k * kDt));
+  for (const double a : {2.0, 2.5, 5.0}) {
+    const StateQuery q = h.query(kT0 + a * kDt);
+    ASSERT_TRUE(q.ok());
+    const Eigen::Vector3d held = imu_at(kT0 + std::floor(a) * kDt).gyro;
+    EXPECT_LT((q.omega - (held - x0.bg)).norm(), 1e-12) << "at " << a << " periods";
+  }
+}
+
 TEST(StateHistory, StatusValues) {
   StateHistory empty(StateHistoryConfig{}, ImuNoiseConfig{});
   EXPECT_EQ(empty.query(kT0).status, QueryStatus::kNotInitialised);

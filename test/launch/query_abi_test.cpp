@@ -14,6 +14,7 @@ namespace {
 
 struct Layout {
   std::size_t estimate_size, estimate_t, position, orientation, velocity, pose_covariance, velocity_covariance, status;
+  std::size_t angular_velocity, host_clock, frame_id, child_frame_id;  // from SONAME 2 on (0 before)
   std::size_t result_size, result_message, result_estimate;
   std::size_t options_size;
   int last_error, last_status;  // the values of Error::not_tracking and Status::lost (the last ones)
@@ -23,7 +24,9 @@ struct Layout {
 Layout recorded(int soversion) {
   switch (soversion) {
     case 1:
-      return {456, 0, 8, 32, 64, 88, 376, 448, 496, 8, 40, 104, 6, 6};
+      return {456, 0, 8, 32, 64, 88, 376, 448, 0, 0, 0, 0, 496, 8, 40, 104, 6, 6};
+    case 2:  // + angular_velocity, host_clock, frame names; at(t, Clock), subscribe(), newest()
+      return {568, 0, 8, 32, 64, 112, 400, 472, 88, 480, 504, 536, 608, 8, 40, 104, 6, 6};
     default:
       ADD_FAILURE() << "no layout recorded for SONAME " << soversion << ": add it to query_abi_test.cpp";
       return {};
@@ -40,6 +43,10 @@ TEST(QueryAbi, TheHeaderHasTheLayoutOfItsSoname) {
                     offsetof(Estimate, pose_covariance),
                     offsetof(Estimate, velocity_covariance),
                     offsetof(Estimate, status),
+                    offsetof(Estimate, angular_velocity),
+                    offsetof(Estimate, host_clock),
+                    offsetof(Estimate, frame_id),
+                    offsetof(Estimate, child_frame_id),
                     sizeof(Result),
                     offsetof(Result, message),
                     offsetof(Result, estimate),
@@ -55,6 +62,10 @@ TEST(QueryAbi, TheHeaderHasTheLayoutOfItsSoname) {
   EXPECT_EQ(have.pose_covariance, want.pose_covariance) << "Estimate::pose_covariance" << bump;
   EXPECT_EQ(have.velocity_covariance, want.velocity_covariance) << "Estimate::velocity_covariance" << bump;
   EXPECT_EQ(have.status, want.status) << "Estimate::status" << bump;
+  EXPECT_EQ(have.angular_velocity, want.angular_velocity) << "Estimate::angular_velocity" << bump;
+  EXPECT_EQ(have.host_clock, want.host_clock) << "Estimate::host_clock" << bump;
+  EXPECT_EQ(have.frame_id, want.frame_id) << "Estimate::frame_id" << bump;
+  EXPECT_EQ(have.child_frame_id, want.child_frame_id) << "Estimate::child_frame_id" << bump;
   EXPECT_EQ(have.result_size, want.result_size) << "sizeof(Result)" << bump;
   EXPECT_EQ(have.result_message, want.result_message) << "Result::message" << bump;
   EXPECT_EQ(have.result_estimate, want.result_estimate) << "Result::estimate" << bump;

@@ -1,5 +1,5 @@
 // fuse::query::Client against a stand-in query server (DDS domain 40): every field of a known
-// estimate, the statuses, typed errors, client-side rejection of invalid times, the deadline
+// estimate, host-time queries, the stream of estimates, the statuses, typed errors, client-side rejection of invalid times, the deadline
 // with no server (domain 41), option checks, concurrent calls and the scheduler slice of the
 // client's transport threads.
 #include <gtest/gtest.h>
@@ -7,6 +7,8 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <mutex>
+#include <vector>
 #include <set>
 #include <thread>
 
@@ -37,6 +39,12 @@ void expect_known(const Estimate& e, double t) {
   EXPECT_EQ(e.velocity, (std::array<double, 3>{0.5, -0.25, t / 1000.0}));
   EXPECT_EQ(e.pose_covariance, msg.pose_covariance());
   EXPECT_EQ(e.velocity_covariance, msg.velocity_covariance());
+  EXPECT_EQ(e.angular_velocity, (std::array<double, 3>{t / 100.0, -0.5, 0.25}));
+  EXPECT_EQ(e.frame_id, "world");
+  EXPECT_EQ(e.child_frame_id, "imu");
+  EXPECT_TRUE(e.host_clock.known);
+  EXPECT_EQ(e.host_clock.realtime_offset, qt::kRealtimeOffset);
+  EXPECT_EQ(e.host_clock.monotonic_offset, qt::kMonotonicOffset);
 }
 
 class QueryClient : public ::testing::Test {
@@ -58,6 +66,59 @@ TEST_F(QueryClient, AnswersAKnownEstimateFieldByField) {
   EXPECT_TRUE(r.ok());
   EXPECT_EQ(r.estimate.status, Status::interpolated);
   expect_known(r.estimate, qt::kInterpolated);
+}
+
+// A host time goes to the server with its clock; the answer is on the sensor clock.
+TEST_F(QueryClient, AHostTimeIsAskedOnItsClock) {
+  Client client(options(kServerDomain));
+  ASSERT_TRUE(client.wait_for_server(10000));
+  const Result rt = client.at(qt::kInterpolated + qt::kRealtimeOffset, Clock::host_realtime);
+  ASSERT_EQ(rt.error, Error::ok) << rt.message;
+  expect_known(rt.estimate, qt::kInterpolated);
+  const Result mono = client.at(qt::kTooOld + qt::kMonotonicOffset, Clock::host_monotonic);
+  EXPECT_EQ(mono.error, Error::out_of_range);
+  EXPECT_EQ(mono.estimate.t, qt::kTooOld);
+  EXPECT_EQ(client.at(-1.0, Clock::host_realtime).error, Error::bad_request);
+}
+
+// Streaming: every estimate published on state/odometry reaches the callback and newest(),
+// judged as a reply is (ok only for a tracked pose).
+TEST_F(QueryClient, StreamedEstimatesReachTheCallbackAndNewest) {
+  std::mutex mutex;  // declared before the client: they outlive a callback in flight
+  std::vector<Result> got;
+  Client client(options(kServerDomain));
+  EXPECT_EQ(client.newest().error, Error::not_ready);
+  client.subscribe([&](const Result& r) {
+    std::lock_guard<std::mutex> lock(mutex);
+    got.push_back(r);
+  });
+  auto count = [&] {
+    std::lock_guard<std::mutex> lock(mutex);
+    return got.size();
+  };
+  // Best effort and discovered in the background: publish until one arrives.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (count() == 0 && std::chrono::steady_clock::now() < deadline) {
+    server_->stream(qt::kInterpolated, fuse_msgs::STATUS_PROPAGATED);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_GT(count(), 0u) << "no streamed estimate in 30 s";
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    ASSERT_TRUE(got.front().ok()) << got.front().message;
+    expect_known(got.front().estimate, qt::kInterpolated);
+  }
+  EXPECT_TRUE(client.newest().ok());
+  const std::size_t before = count();
+  const auto lost_deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (client.newest().estimate.status != Status::lost && std::chrono::steady_clock::now() < lost_deadline) {
+    server_->stream(qt::kLost, fuse_msgs::STATUS_LOST);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  const Result lost = client.newest();
+  EXPECT_EQ(lost.error, Error::not_tracking);
+  EXPECT_EQ(lost.estimate.t, qt::kLost);
+  EXPECT_GT(count(), before);
 }
 
 TEST_F(QueryClient, LatestAsksForTheNewestEstimate) {

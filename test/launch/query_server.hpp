@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "fuse/transport/rpc.hpp"
+#include "fuse/transport/typed.hpp"
 
 namespace fuse::test {
 
@@ -24,6 +25,9 @@ inline constexpr double kNotReady = 50.0;
 inline constexpr double kThrows = 51.0;
 inline constexpr double kServerRefuses = 52.0;
 inline constexpr double kLatest = 105.5;  ///< the time of the latest estimate
+/// The host clock mapping every estimate carries (t_host = t + offset).
+inline constexpr double kRealtimeOffset = 1.7e9;
+inline constexpr double kMonotonicOffset = 5000.25;
 }  // namespace query_times
 
 /// The estimate the server answers for time t: every field derived from t, so a test can
@@ -48,6 +52,13 @@ inline fuse_msgs::StateEstimate known_estimate(double t, fuse_msgs::EstimateStat
   e.status(status);
   e.sequence_number(static_cast<unsigned long long>(t));
   e.frame("world");
+  e.child_frame("imu");
+  e.angular_velocity().x(t / 100.0);
+  e.angular_velocity().y(-0.5);
+  e.angular_velocity().z(0.25);
+  e.host_clock_known(true);
+  e.host_realtime_offset(query_times::kRealtimeOffset);
+  e.host_monotonic_offset(query_times::kMonotonicOffset);
   return e;
 }
 
@@ -59,11 +70,16 @@ class FakeQueryServer {
     participant_ = transport::make_participant(config, "fake-fuse-state");
     server_ = std::make_unique<Server>(*participant_, transport::services::kQuery,
                                        [this](const fuse_msgs::QueryRequest& q, fuse_msgs::QueryReply& r) { answer(q, r); });
+    odometry_ = std::make_unique<transport::Publisher<fuse_msgs::StateEstimate>>(*participant_, transport::topics::kOdometry);
   }
   ~FakeQueryServer() {
+    odometry_.reset();
     server_.reset();
     participant_.reset();
   }
+
+  /// Publishes the known estimate for t on state/odometry, as fuse-state does per IMU sample.
+  void stream(double t, fuse_msgs::EstimateStatus status) { odometry_->publish(known_estimate(t, status)); }
 
   /// Requests for a time no client should send (non-finite, negative, beyond 1e10 s). Tests
   /// in other processes may call this server too, but never with such a time.
@@ -79,7 +95,9 @@ class FakeQueryServer {
       r.estimate(known_estimate(qt::kLatest, fuse_msgs::STATUS_PROPAGATED));
       return;
     }
-    const double t = q.t();
+    double t = q.t();  // on the sensor clock, as fuse-state maps a host time
+    if (q.clock() == fuse_msgs::CLOCK_HOST_REALTIME) t -= qt::kRealtimeOffset;
+    if (q.clock() == fuse_msgs::CLOCK_HOST_MONOTONIC) t -= qt::kMonotonicOffset;
     if (t == qt::kNotReady) {
       r.error(fuse_msgs::RPC_NOT_READY);
       r.error_message("IMU does not cover t yet");
@@ -106,6 +124,7 @@ class FakeQueryServer {
 
   std::unique_ptr<transport::Participant> participant_;
   std::unique_ptr<Server> server_;
+  std::unique_ptr<transport::Publisher<fuse_msgs::StateEstimate>> odometry_;
   std::atomic<int> invalid_requests_{0};
 };
 

@@ -144,6 +144,11 @@ inline fuse_msgs::StateEstimate make_state(int seed) {
   m.status(fuse_msgs::STATUS_CORRECTED);
   m.sequence_number(seed + 3);
   m.frame("world");
+  m.child_frame("imu");
+  m.angular_velocity(vec(seed, 6));
+  m.host_clock_known(true);
+  m.host_realtime_offset(v(seed, 7));
+  m.host_monotonic_offset(-v(seed, 8));
   return m;
 }
 
@@ -250,6 +255,7 @@ inline fuse_msgs::QueryRequest make_query_request(int seed) {
   m.header(header(seed));
   m.t(v(seed, 0));
   m.latest(true);
+  m.clock(fuse_msgs::CLOCK_HOST_MONOTONIC);
   return m;
 }
 

@@ -209,6 +209,7 @@ StateQuery StateHistory::query(double t) const {
     q.x = interpolate(e0.x, e1.x, a);
     q.P = (1.0 - a) * e0.P + a * e1.P;
   }
+  q.omega = e0.gyro - q.x.bg;  // the rate propagation integrates from e0 on
   q.status = t <= last_correction_t_ + kSameTime ? QueryStatus::kCorrected : QueryStatus::kPropagated;
   return q;
 }

@@ -222,6 +222,7 @@ fuse_msgs::StateEstimate to_estimate(const StateQuery& q, std::uint64_t sequence
   m.t(q.t);
   m.sequence_number(sequence);
   m.frame("world");
+  m.child_frame("imu");
   switch (q.status) {
     case QueryStatus::kNotInitialised: m.status(fuse_msgs::STATUS_NOT_INITIALISED); return m;
     case QueryStatus::kTooOld: m.status(fuse_msgs::STATUS_TOO_OLD); return m;
@@ -234,6 +235,7 @@ fuse_msgs::StateEstimate to_estimate(const StateQuery& q, std::uint64_t sequence
   m.gyro_bias(v3(q.x.bg));
   m.accel_bias(v3(q.x.ba));
   m.gravity(v3(q.x.g));
+  m.angular_velocity(v3(q.omega));
   // Pose covariance in the order (position, rotation): the error state's kPos and kRot blocks.
   const int idx[6] = {Idx::kPos, Idx::kPos + 1, Idx::kPos + 2, Idx::kRot, Idx::kRot + 1, Idx::kRot + 2};
   for (int r = 0; r < 6; ++r) {

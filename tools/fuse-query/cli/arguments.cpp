@@ -33,13 +33,19 @@ int parse_positive_int(const std::string& name, const std::string& text) {
 std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
   const auto app = cli::make_app(
       "fuse-query",
-      "Asks fuse-state for the estimate at time T (seconds, sensor clock) or the latest one: pose, velocity, "
-      "covariance, status.",
+      "Asks fuse-state for the estimate at time T (seconds, sensor clock unless --clock says otherwise) or the "
+      "latest one: pose, velocity, angular velocity, covariance, status, frames and the host clock mapping.",
       "Exit codes: 0 a pose to steer by, 2 usage or config, 3 an answer that is not one (outside the history, "
       "relocalizing, lost, not ready, error reply), 4 no reply (unavailable).");
   std::string time;
   std::string deadline;
-  app->add_option("--time", time, "the sensor time to ask for")->type_name("T");
+  std::string clock = "sensor";
+  app->add_option("--time", time, "the time to ask for (seconds on --clock)")->type_name("T");
+  app->add_option("--clock", clock,
+                  "the clock of --time: sensor (the default; every estimate's t), realtime (the host's UNIX time) "
+                  "or monotonic (the host's CLOCK_MONOTONIC, on fuse-state's machine)")
+      ->type_name("C")
+      ->check(CLI::IsMember({"sensor", "realtime", "monotonic"}));
   app->add_flag("--latest", "the latest estimate (the default)");
   app->add_flag("--json", a.json, "print one JSON object");
   app->add_option("--deadline-ms", deadline, "wait at most N ms for the reply (default 1000)")->type_name("N");
@@ -51,7 +57,12 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
       if (app->count("--latest") > 0) return cli::usage_error(*app, "--time and --latest exclude each other");
       a.time = parse_double("--time", time);
       a.latest = false;
+    } else if (app->count("--clock") > 0) {
+      return cli::usage_error(*app, "--clock applies to --time only");
     }
+    a.clock = clock == "realtime"    ? query::Clock::host_realtime
+              : clock == "monotonic" ? query::Clock::host_monotonic
+                                     : query::Clock::sensor;
     if (app->count("--deadline-ms") > 0) a.deadline_ms = parse_positive_int("--deadline-ms", deadline);
   } catch (const std::invalid_argument& e) {
     return cli::usage_error(*app, e.what());

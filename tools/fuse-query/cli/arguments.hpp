@@ -5,11 +5,14 @@
 #include <string>
 #include <vector>
 
+#include "fuse/query/client.hpp"
+
 namespace fuse::query_tool {
 
 struct Arguments {
   bool latest = true;  ///< --latest (the default) or --time T
   double time = 0.0;
+  query::Clock clock = query::Clock::sensor;  ///< --clock: the clock --time is on
   bool json = false;
   int deadline_ms = 1000;
   std::string config_file;             ///< optional: its `transport:` section

@@ -1,6 +1,6 @@
 // fuse-query: asks the running estimator for the state at a time.
 //
-//   fuse-query [--time T | --latest] [--json] [--deadline-ms N] [--config FILE] [--set key=value]...
+//   fuse-query [--time T [--clock C] | --latest] [--json] [--deadline-ms N] [--config FILE] [--set key=value]...
 //              [--domain N] [--vendor V]        (--help lists them; --version)
 //
 // Prints the pose, velocity, covariance diagonals, time and status (or one JSON object).
@@ -54,7 +54,7 @@ int main(int argc, char** argv) {
   }
   try {
     fuse::query::Client client(options);
-    const fuse::query::Result result = args.latest ? client.latest() : client.at(args.time);
+    const fuse::query::Result result = args.latest ? client.latest() : client.at(args.time, args.clock);
     print(result, args.json);
     return exit_code(result.error);
   } catch (const std::invalid_argument& e) {

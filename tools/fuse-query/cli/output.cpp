@@ -55,14 +55,29 @@ std::string json_string(const std::string& text) {
   }
   return s + "\"";
 }
+
+/// t on the host clocks, when fuse-state has a mapping.
+std::string host_clock_text(const query::Estimate& e) {
+  if (!e.host_clock.known) return "\nhost_clock: unknown";
+  return "\nhost_realtime: " + number(e.t + e.host_clock.realtime_offset) +
+         "\nhost_monotonic: " + number(e.t + e.host_clock.monotonic_offset);
+}
+
+std::string host_clock_json(const query::Estimate& e) {
+  if (!e.host_clock.known) return "null";
+  return "{\"realtime_offset\":" + json_number(e.host_clock.realtime_offset) +
+         ",\"monotonic_offset\":" + json_number(e.host_clock.monotonic_offset) + "}";
+}
 }  // namespace
 
 std::string format_text(const query::Result& r) {
   const query::Estimate& e = r.estimate;
   return "t: " + number(e.t) + "\nstatus: " + query::to_string(e.status) + "\nposition: " + text_list(e.position) +
+         "\nframe: " + e.frame_id + " <- " + e.child_frame_id +
          "\norientation_xyzw: " + text_list(e.orientation_xyzw) + "\nvelocity: " + text_list(e.velocity) +
+         "\nangular_velocity: " + text_list(e.angular_velocity) +
          "\npose_covariance_diagonal: " + text_list(diagonal<6>(e.pose_covariance)) +
-         "\nvelocity_covariance_diagonal: " + text_list(diagonal<3>(e.velocity_covariance)) + "\n";
+         "\nvelocity_covariance_diagonal: " + text_list(diagonal<3>(e.velocity_covariance)) + host_clock_text(e) + "\n";
 }
 
 std::string format_json(const query::Result& r) {
@@ -73,7 +88,9 @@ std::string format_json(const query::Result& r) {
     const query::Estimate& e = r.estimate;
     s += ",\"t\":" + json_number(e.t) + ",\"status\":" + json_string(query::to_string(e.status)) +
          ",\"position\":" + json_list(e.position) + ",\"orientation_xyzw\":" + json_list(e.orientation_xyzw) +
-         ",\"velocity\":" + json_list(e.velocity) +
+         ",\"velocity\":" + json_list(e.velocity) + ",\"angular_velocity\":" + json_list(e.angular_velocity) +
+         ",\"frame_id\":" + json_string(e.frame_id) + ",\"child_frame_id\":" + json_string(e.child_frame_id) +
+         ",\"host_clock\":" + host_clock_json(e) +
          ",\"pose_covariance_diagonal\":" + json_list(diagonal<6>(e.pose_covariance)) +
          ",\"velocity_covariance_diagonal\":" + json_list(diagonal<3>(e.velocity_covariance)) +
          ",\"pose_covariance\":" + json_list(e.pose_covariance) +

@@ -5,11 +5,15 @@
 #include <algorithm>
 #include <chrono>
 #include <exception>
+#include <functional>
+#include <mutex>
+#include <optional>
 #include <stdexcept>
 #include <thread>
 
 #include "fuse/core/scheduling.hpp"
 #include "fuse/transport/rpc.hpp"
+#include "fuse/transport/typed.hpp"
 #include "time_check.hpp"
 #include "wire_conversion.hpp"
 
@@ -92,9 +96,43 @@ class Client::Impl {
 
   const ClientOptions& options() const { return options_; }
 
+  void subscribe(std::function<void(const Result&)> callback) {
+    std::lock_guard<std::mutex> lock(stream_mutex_);
+    callback_ = std::move(callback);
+    ensure_subscribed();
+  }
+
+  Result newest() {
+    std::lock_guard<std::mutex> lock(stream_mutex_);
+    ensure_subscribed();
+    if (!newest_) return Result{Error::not_ready, "no streamed estimate has arrived yet", {}};
+    return *newest_;
+  }
+
  private:
+  /// Lock held. The reader of state/odometry, made once.
+  void ensure_subscribed() {
+    if (odometry_) return;
+    odometry_ = std::make_unique<transport::Subscriber<fuse_msgs::StateEstimate>>(
+        *endpoints_.participant, transport::topics::kOdometry, [this](const fuse_msgs::StateEstimate& m) {
+          const Result r = to_result(m);
+          std::function<void(const Result&)> callback;
+          {
+            std::lock_guard<std::mutex> lock(stream_mutex_);
+            newest_ = r;
+            callback = callback_;
+          }
+          if (callback) callback(r);  // outside the lock: it may call newest()
+        });
+  }
+
   ClientOptions options_;
   Endpoints endpoints_;
+  std::mutex stream_mutex_;  ///< guards the three below
+  std::function<void(const Result&)> callback_;
+  std::optional<Result> newest_;
+  /// Declared last: destroyed first, so no callback runs into the members above as they go.
+  std::unique_ptr<transport::Subscriber<fuse_msgs::StateEstimate>> odometry_;
 };
 
 Client::Client(const ClientOptions& options) : impl_(std::make_unique<Impl>(options)) {}
@@ -102,13 +140,23 @@ Client::~Client() = default;
 Client::Client(Client&&) noexcept = default;
 Client& Client::operator=(Client&&) noexcept = default;
 
-Result Client::at(double t) {
+Result Client::at(double t, Clock clock) {
   if (std::string why = check_query_time(t); !why.empty()) return Result{Error::bad_request, why, {}};
   fuse_msgs::QueryRequest request;
   request.t(t);
   request.latest(false);
+  switch (clock) {
+    case Clock::sensor: request.clock(fuse_msgs::CLOCK_SENSOR); break;
+    case Clock::host_realtime: request.clock(fuse_msgs::CLOCK_HOST_REALTIME); break;
+    case Clock::host_monotonic: request.clock(fuse_msgs::CLOCK_HOST_MONOTONIC); break;
+    default: return Result{Error::bad_request, "unknown clock", {}};
+  }
   return impl_->call(request);
 }
+
+void Client::subscribe(std::function<void(const Result&)> callback) { impl_->subscribe(std::move(callback)); }
+
+Result Client::newest() { return impl_->newest(); }
 
 Result Client::latest() {
   fuse_msgs::QueryRequest request;

@@ -46,9 +46,16 @@ Estimate to_estimate(const fuse_msgs::StateEstimate& msg) {
   e.position = {p.x(), p.y(), p.z()};
   e.orientation_xyzw = {q.x(), q.y(), q.z(), q.w()};
   e.velocity = {v.x(), v.y(), v.z()};
+  const auto& w = msg.angular_velocity();
+  e.angular_velocity = {w.x(), w.y(), w.z()};
   e.pose_covariance = msg.pose_covariance();
   e.velocity_covariance = msg.velocity_covariance();
   e.status = to_status(msg.status());
+  e.host_clock.known = msg.host_clock_known();
+  e.host_clock.realtime_offset = msg.host_realtime_offset();
+  e.host_clock.monotonic_offset = msg.host_monotonic_offset();
+  if (msg.frame().size() > 0) e.frame_id = msg.frame().to_string();
+  if (msg.child_frame().size() > 0) e.child_frame_id = msg.child_frame().to_string();
   return e;
 }
 
@@ -57,7 +64,16 @@ Result to_result(fuse_msgs::RpcStatus status, const std::string& message, const 
   r.error = to_error(status);
   r.message = message;
   if (r.error != Error::ok) return r;
-  r.estimate = to_estimate(reply.estimate());
+  return judged(to_estimate(reply.estimate()), message);
+}
+
+Result to_result(const fuse_msgs::StateEstimate& streamed) { return judged(to_estimate(streamed), ""); }
+
+Result judged(const Estimate& estimate, const std::string& message) {
+  Result r;
+  r.error = Error::ok;
+  r.message = message;
+  r.estimate = estimate;
   // The server answered; whether the answer is a pose to steer by is the status's to say.
   switch (r.estimate.status) {
     case Status::interpolated:

@@ -5,10 +5,10 @@
 
 namespace fuse {
 
-/// "0.2.0"
+/// "0.3.0"
 const char* version();
 
-/// "NAME (FUSE-SLAM) 0.2.0": the first line of every --version.
+/// "NAME (FUSE-SLAM) 0.3.0": the first line of every --version.
 std::string version_line(const std::string& program);
 
 }  // namespace fuse

@@ -41,6 +41,9 @@ struct StateQuery {
   double t = 0.0;
   NavState x;
   StateCovariance P = StateCovariance::Zero();
+  /// Angular velocity of the IMU body (IMU frame, rad/s): the gyro sample held at t minus the
+  /// gyro bias, ω = ω̃ − b_g: the rate the propagation integrates at t.
+  Eigen::Vector3d omega = Eigen::Vector3d::Zero();
   bool ok() const { return status == QueryStatus::kCorrected || status == QueryStatus::kPropagated; }
 };
 

@@ -6,16 +6,21 @@
 //   options.domain_id = 7;
 //   fuse::query::Client client(options);
 //   client.wait_for_server(2000);
-//   const fuse::query::Result r = client.at(t);
+//   const fuse::query::Result r = client.at(t);  // or client.at(unix_time, Clock::host_realtime)
 //   if (r.ok()) {
 //     steer_by(r.estimate.position, r.estimate.orientation_xyzw);  // tracking, t in the history
 //   } else {
 //     hold(r.error, r.message);  // e.g. out_of_range "t=... is before the history [a, b]"
 //   }
+//
+//   // Or streamed: every estimate fuse-state publishes (one per IMU sample), no RPC.
+//   client.subscribe([](const fuse::query::Result& r) { if (r.ok()) control(r.estimate); });
+//   const fuse::query::Result newest = client.newest();  // or poll the newest one
 #pragma once
 
 #include <array>
 #include <cstddef>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -78,16 +83,37 @@ enum class Status {
   lost,
 };
 
+/// The clock a time is on.
+enum class Clock {
+  sensor,          ///< the sensor clock every estimate is stamped on (Estimate::t)
+  host_realtime,   ///< the host's CLOCK_REALTIME (UNIX time, seconds)
+  host_monotonic,  ///< the host's CLOCK_MONOTONIC (seconds); only on fuse-state's own machine
+};
+
+/// Host clock minus sensor clock, as fuse-state measures it from the arrival of the IMU samples:
+/// the fastest sample of the last 10 s, so the mapping is late by at most that sample's latency
+/// (driver, ingestion and transport; typically well under a millisecond on one machine).
+struct HostClock {
+  bool known = false;             ///< false until fuse-state has received an IMU sample
+  double realtime_offset = 0.0;   ///< t_realtime = t_sensor + realtime_offset
+  double monotonic_offset = 0.0;  ///< t_monotonic = t_sensor + monotonic_offset
+};
+
 /// The state of the IMU body in the world frame at time t.
 struct Estimate {
   double t = 0.0;                                ///< seconds, sensor clock
   std::array<double, 3> position{};              ///< metres, world frame
   std::array<double, 4> orientation_xyzw{0.0, 0.0, 0.0, 1.0};  ///< rotation world <- IMU
   std::array<double, 3> velocity{};              ///< m/s, world frame
+  /// rad/s, IMU (body) frame: the gyro sample held at t minus the estimated gyro bias.
+  std::array<double, 3> angular_velocity{};
   /// Row-major 6x6: position (x, y, z) then rotation (rx, ry, rz) as a right perturbation.
   std::array<double, 36> pose_covariance{};
   std::array<double, 9> velocity_covariance{};   ///< row-major 3x3, world frame
   Status status = Status::not_initialised;
+  HostClock host_clock;                          ///< t on the host: t + host_clock.*_offset
+  std::string frame_id = "world";                ///< the frame of position, orientation, velocity
+  std::string child_frame_id = "imu";            ///< the body they describe (T_world_imu)
 };
 
 struct Result {
@@ -112,10 +138,20 @@ class FUSE_QUERY_API Client {
   Client(const Client&) = delete;
   Client& operator=(const Client&) = delete;
 
-  /// The estimate at time t (seconds, sensor clock).
-  Result at(double t);
+  /// The estimate at time t (seconds on `clock`). A host time is mapped to the sensor clock by
+  /// fuse-state (not_ready before it has a mapping); the estimate's t is on the sensor clock.
+  Result at(double t, Clock clock = Clock::sensor);
   /// The newest estimate the server holds.
   Result latest();
+
+  /// Streaming, for planners that do not poll by RPC: `callback` gets every estimate fuse-state
+  /// publishes (one per IMU sample, best effort: a late one is not re-sent), judged as at()
+  /// judges a reply (ok() only for a tracked pose). It runs on a transport thread: keep it short.
+  /// Replaces an earlier callback; an empty one stops the calls (the subscription stays).
+  void subscribe(std::function<void(const Result&)> callback);
+  /// The newest streamed estimate, judged as at() judges a reply; not_ready before the first one
+  /// arrived. The first call subscribes (so the first answer is usually not_ready).
+  Result newest();
   /// Waits until a query server is matched; false when none appeared within timeout_ms.
   bool wait_for_server(int timeout_ms);
 
