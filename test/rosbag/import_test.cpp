@@ -5,6 +5,10 @@
 
 #include <cmath>
 #include <filesystem>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "fuse/io/recording.hpp"
 #include "fuse/io/sensor_source.hpp"
@@ -104,6 +108,7 @@ TEST(Import, SyntheticRos1BagFieldByField) {
   const TopicChoice c = choose_topics(*reader, {});
   EXPECT_EQ(reader->topics()[c.imu].name, "/imu");
   EXPECT_EQ(reader->topics()[c.lidar].name, "/points");
+  EXPECT_EQ(expected_messages(*reader, c), std::optional<std::uint64_t>(401u + 20u));  // the progress line's total
   const std::string out = ::testing::TempDir() + "/import_synthetic.mcap";
   ImportSummary s;
   {
@@ -148,6 +153,30 @@ TEST(Import, SyntheticRos1BagFieldByField) {
   EXPECT_EQ(scans, 20);
   std::filesystem::remove(out);
   std::filesystem::remove(bag.path);
+}
+
+/// A bag of two topics with the counts it declares (0: none), for expected_messages.
+class DeclaredCounts final : public rosbag::BagReader {
+ public:
+  DeclaredCounts(std::uint64_t imu, std::uint64_t lidar)
+      : topics_{{"/imu", "sensor_msgs/Imu", Serialization::kRos1, imu},
+                {"/points", "sensor_msgs/PointCloud2", Serialization::kRos1, lidar}} {}
+  const std::vector<rosbag::BagTopic>& topics() const override { return topics_; }
+  std::uint64_t start_time_ns() const override { return 0; }
+  std::uint64_t end_time_ns() const override { return 0; }
+  void start(const std::vector<std::string>&) override {}
+  bool next(rosbag::BagMessage&) override { return false; }
+  std::string describe() const override { return "declared counts"; }
+
+ private:
+  std::vector<rosbag::BagTopic> topics_;
+};
+
+TEST(Import, ProgressTotalOnlyWhenTheBagDeclaresBothCounts) {
+  const TopicChoice c{0, 1, LidarKind::kPointCloud2};
+  EXPECT_EQ(expected_messages(DeclaredCounts(400, 20), c), std::optional<std::uint64_t>(420u));
+  EXPECT_FALSE(expected_messages(DeclaredCounts(0, 20), c));  // then the line has no percentage
+  EXPECT_FALSE(expected_messages(DeclaredCounts(400, 0), c));
 }
 
 TEST(Import, TopicChoiceErrors) {
@@ -196,33 +225,88 @@ TEST(Import, TypeNames) {
 namespace fuse::import {
 namespace {
 
+/// parse_arguments on the command line "fuse-import ARGS...": its result and what it printed.
+struct Parsed {
+  std::optional<int> code;  ///< std::nullopt: the import would run
+  Arguments arguments;
+  std::string out, err;
+};
+
+Parsed parse(std::vector<std::string> args) {
+  args.insert(args.begin(), "fuse-import");
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  Parsed p;
+  ::testing::internal::CaptureStdout();
+  ::testing::internal::CaptureStderr();
+  p.code = parse_arguments(static_cast<int>(argv.size()), argv.data(), p.arguments);
+  p.out = ::testing::internal::GetCapturedStdout();
+  p.err = ::testing::internal::GetCapturedStderr();
+  return p;
+}
+
 TEST(ImportArguments, ParsedAndCheckedBeforeAnythingIsRead) {
-  const Arguments a = parse_arguments({"--input", "x.bag", "--out", "y.mcap", "--imu-topic", "/imu", "--time-field",
-                                       "time", "--imu-accel-unit", "g", "--extrinsic", "0.1,0,-0.2,0,0,0.7071068,0.7071068"});
+  const Parsed p = parse({"--input", "x.bag", "--out", "y.mcap", "--imu-topic", "/imu", "--lidar-topic=/points",
+                          "--time-field", "time", "--imu-accel-unit", "g", "--extrinsic",
+                          "0.1,0,-0.2,0,0,0.7071068,0.7071068"});
+  ASSERT_FALSE(p.code) << p.err;
+  const Arguments& a = p.arguments;
+  EXPECT_EQ(a.input, "x.bag");
+  EXPECT_EQ(a.out, "y.mcap");
   EXPECT_EQ(a.import.imu_topic, "/imu");
+  EXPECT_EQ(a.import.lidar_topic, "/points");
   EXPECT_EQ(a.import.time_field, "time");
   EXPECT_DOUBLE_EQ(a.import.accel_scale, 9.80665);
   ASSERT_TRUE(a.T_imu_lidar);
   EXPECT_NEAR(a.T_imu_lidar->translation().z(), -0.2, 1e-12);
   EXPECT_NEAR((a.T_imu_lidar->linear() * Eigen::Vector3d::UnitX()).y(), 1.0, 1e-6);  // 90 deg about z
-  auto error_of = [](std::vector<std::string> args) {
-    try {
-      parse_arguments(args);
-      return std::string();
-    } catch (const ArgumentError& e) {
-      return std::string(e.what());
-    }
+  // An extrinsic starting with a minus sign is a value, not an option.
+  const Parsed minus = parse({"--input", "x", "--out", "y", "--extrinsic", "-0.5,0,0,0,0,0,1"});
+  ASSERT_TRUE(minus.arguments.T_imu_lidar) << minus.err;
+  EXPECT_NEAR(minus.arguments.T_imu_lidar->translation().x(), -0.5, 1e-12);
+}
+
+TEST(ImportArguments, Defaults) {
+  const Parsed p = parse({"--input", "x", "--out", "y"});
+  ASSERT_FALSE(p.code) << p.err;
+  EXPECT_EQ(p.arguments.import.imu_topic, "");
+  EXPECT_EQ(p.arguments.import.lidar_topic, "");
+  EXPECT_EQ(p.arguments.import.time_field, "");
+  EXPECT_DOUBLE_EQ(p.arguments.import.accel_scale, 1.0);
+  EXPECT_FALSE(p.arguments.T_imu_lidar);
+  EXPECT_DOUBLE_EQ(parse({"--input", "x", "--out", "y", "--imu-accel-unit", "mps2"}).arguments.import.accel_scale, 1.0);
+}
+
+TEST(ImportArguments, HelpAndVersionExitZeroOnStdout) {
+  const Parsed help = parse({"--help"});
+  EXPECT_EQ(help.code, 0);
+  EXPECT_NE(help.out.find("Usage: fuse-import"), std::string::npos) << help.out;
+  EXPECT_NE(help.out.find("--extrinsic"), std::string::npos) << help.out;
+  const Parsed version = parse({"--version"});
+  EXPECT_EQ(version.code, 0);
+  EXPECT_EQ(version.out.rfind("fuse-import (FUSE-SLAM) ", 0), 0u) << version.out;
+}
+
+TEST(ImportArguments, BadArgumentsExitTwoNamingTheFlag) {
+  // Each bad command line and what the message (on stderr) must contain.
+  const std::vector<std::pair<std::vector<std::string>, std::string>> bad = {
+      {{"--out", "y"}, "--input is required"},
+      {{"--input", "x"}, "--out is required"},
+      {{"--input", "x", "--out", "y", "--time-field", "stamp"}, "--time-field: 'stamp' is not t, time"},
+      {{"--input", "x", "--out", "y", "--imu-accel-unit", "ft"}, "--imu-accel-unit: 'ft' is not g or mps2"},
+      {{"--input", "x", "--out", "y", "--extrinsic", "1,2,3"}, "--extrinsic needs 7 comma-separated"},
+      {{"--input", "x", "--out", "y", "--extrinsic", "0,0,0,0,0,0,2"}, "--extrinsic: the quaternion"},
+      {{"--input", "x", "--out", "y", "--extrinsic", "0,0,a,0,0,0,1"}, "--extrinsic: 'a' is not a number"},
+      {{"--input", "x", "--out", "y", "--extrinsic", "0,0,inf,0,0,0,1"}, "--extrinsic: values must be finite"},
+      {{"--out", "y", "--input"}, "--input"},  // no value
+      {{"--input", "x", "--out", "y", "--bogus"}, "unknown option --bogus"},
   };
-  EXPECT_NE(error_of({"--out", "y"}).find("--input is required"), std::string::npos);
-  EXPECT_NE(error_of({"--input", "x"}).find("--out is required"), std::string::npos);
-  EXPECT_NE(error_of({"--input", "x", "--out", "y", "--time-field", "stamp"}).find("not t, time"), std::string::npos);
-  EXPECT_NE(error_of({"--input", "x", "--out", "y", "--imu-accel-unit", "ft"}).find("not g or mps2"), std::string::npos);
-  EXPECT_NE(error_of({"--input", "x", "--out", "y", "--extrinsic", "1,2,3"}).find("7 comma-separated"), std::string::npos);
-  EXPECT_NE(error_of({"--input", "x", "--out", "y", "--extrinsic", "0,0,0,0,0,0,2"}).find("unit norm"), std::string::npos);
-  EXPECT_NE(error_of({"--input", "x", "--out", "y", "--extrinsic", "0,0,a,0,0,0,1"}).find("'a' is not a number"),
-            std::string::npos);
-  EXPECT_NE(error_of({"--input"}).find("needs a value"), std::string::npos);
-  EXPECT_NE(error_of({"--bogus"}).find("unknown argument"), std::string::npos);
+  for (const auto& [args, message] : bad) {
+    const Parsed p = parse(args);
+    EXPECT_EQ(p.code, 2) << ::testing::PrintToString(args);  // fuse::cli::kExitUsage
+    EXPECT_NE(p.err.find("fuse-import: " + message), std::string::npos) << ::testing::PrintToString(args) << "\n"
+                                                                        << p.err;
+  }
 }
 
 }  // namespace

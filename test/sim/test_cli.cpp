@@ -1,13 +1,16 @@
-// Command line parsing, exit codes of the executable, determinism of the written files and the
-// sequence-directory output.
+// Command line parsing (messages naming the flag, defaults, --help / --version), exit codes of
+// the executable, determinism of the written files and the sequence-directory output.
 #include <gtest/gtest.h>
 
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <sys/wait.h>
+#include <utility>
+#include <vector>
 
 #include "fuse/sim/cli.hpp"
 
@@ -15,6 +18,8 @@ using namespace fuse::sim;
 namespace fs = std::filesystem;
 
 namespace {
+
+constexpr int kExitUsage = 2;  // fuse::cli::kExitUsage: a usage error
 
 int run(const std::string& args) {
   const std::string cmd = std::string(FUSE_SIM_EXE) + " " + args + " >/dev/null 2>&1";
@@ -43,53 +48,97 @@ std::string line_with(const std::string& text, const std::string& key) {
   return "";
 }
 
+/// parse_arguments on the command line "fuse-sim ARGS...": its result and what it printed.
+struct Parsed {
+  std::optional<int> code;  ///< std::nullopt: the simulation would run
+  SimOptions options;
+  std::string out, err;
+};
+
+Parsed parse(std::vector<std::string> args) {
+  args.insert(args.begin(), "fuse-sim");
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  Parsed p;
+  ::testing::internal::CaptureStdout();
+  ::testing::internal::CaptureStderr();
+  p.code = parse_arguments(static_cast<int>(argv.size()), argv.data(), p.options);
+  p.out = ::testing::internal::GetCapturedStdout();
+  p.err = ::testing::internal::GetCapturedStderr();
+  return p;
+}
+
 }  // namespace
 
 TEST(SimCli, ParsesValidArguments) {
-  const CliCommand c = parse_cli({"--scenario", "room", "--seed", "7", "--duration", "2.5", "--lidar", "spinning32",
-                                  "--format", "seqdir", "--out", "x"});
-  EXPECT_FALSE(c.help);
+  const Parsed c = parse({"--scenario", "room", "--seed", "7", "--duration", "2.5", "--lidar", "spinning32", "--format",
+                          "seqdir", "--out", "x"});
+  ASSERT_FALSE(c.code) << c.err;
   EXPECT_EQ(c.options.scenario, "room");
   EXPECT_EQ(c.options.seed, 7u);
   EXPECT_EQ(c.options.world_seed, 7u);  // defaults to --seed
   EXPECT_DOUBLE_EQ(*c.options.duration_s, 2.5);
   EXPECT_EQ(c.options.lidar, "spinning32");
   EXPECT_EQ(c.options.format, OutputFormat::kSeqdir);
-  EXPECT_EQ(parse_cli({"--scenario", "room", "--seed", "7", "--world-seed", "3", "--out", "x"}).options.world_seed,
-            3u);
-  EXPECT_TRUE(parse_cli({"--help"}).help);
-  EXPECT_EQ(parse_cli({"--scenario", "corridor", "--seed", "1", "--laps", "3", "--out", "x"}).options.laps, 3);
+  EXPECT_EQ(c.options.out_dir, "x");
   EXPECT_EQ(c.options.laps, 1);
+  EXPECT_EQ(parse({"--scenario", "room", "--seed", "7", "--world-seed", "3", "--out", "x"}).options.world_seed, 3u);
+  EXPECT_EQ(parse({"--scenario", "corridor", "--seed", "1", "--laps", "3", "--out", "x"}).options.laps, 3);
+  // Defaults; --opt=value works too; an option given twice takes the later value (the convention).
+  const Parsed d = parse({"--scenario=corridor", "--seed", "1", "--seed=2", "--out", "y"});
+  ASSERT_FALSE(d.code) << d.err;
+  EXPECT_EQ(d.options.seed, 2u);
+  EXPECT_EQ(d.options.world_seed, 2u);
+  EXPECT_FALSE(d.options.duration_s);
+  EXPECT_EQ(d.options.lidar, "mid360");
+  EXPECT_EQ(d.options.format, OutputFormat::kMcap);
 }
 
-TEST(SimCli, RejectsBadArguments) {
-  const std::vector<std::vector<std::string>> bad = {
-      {},
-      {"--scenario", "corridor", "--out", "x"},                                 // missing --seed
-      {"--scenario", "corridor", "--seed", "1"},                                // missing --out
-      {"--seed", "1", "--out", "x"},                                            // missing --scenario
-      {"--scenario", "mall", "--seed", "1", "--out", "x"},                      // unknown scenario
-      {"--scenario", "corridor", "--seed", "-1", "--out", "x"},                 // negative seed
-      {"--scenario", "corridor", "--seed", "1x", "--out", "x"},                 // junk
-      {"--scenario", "corridor", "--seed", "99999999999999999999999", "--out", "x"},  // overflow
-      {"--scenario", "corridor", "--seed", "1", "--duration", "0", "--out", "x"},
-      {"--scenario", "corridor", "--seed", "1", "--duration", "nan", "--out", "x"},
-      {"--scenario", "corridor", "--seed", "1", "--duration", "0.05", "--out", "x"},  // < one frame
-      {"--scenario", "corridor", "--seed", "1", "--duration", "3s", "--out", "x"},
-      {"--scenario", "corridor", "--seed", "1", "--lidar", "hdl64", "--out", "x"},
-      {"--scenario", "corridor", "--seed", "1", "--format", "bag", "--out", "x"},
-      {"--scenario", "corridor", "--seed", "1", "--out"},                       // missing value
-      {"--scenario", "corridor", "--seed", "1", "--seed", "2", "--out", "x"},   // repeated
-      {"--scenario", "corridor", "--seed", "1", "--out", "x", "--verbose"},     // unknown
-      {"--scenario", "corridor", "--seed", "1", "--laps", "0", "--out", "x"},
-      {"--scenario", "corridor", "--seed", "1", "--laps", "101", "--out", "x"},
-      {"--scenario", "room", "--seed", "1", "--laps", "2", "--out", "x"},       // not a loop
+TEST(SimCli, HelpAndVersionExitZeroOnStdout) {
+  const Parsed help = parse({"--help"});
+  EXPECT_EQ(help.code, 0);
+  EXPECT_NE(help.out.find("Usage: fuse-sim"), std::string::npos) << help.out;
+  EXPECT_NE(help.out.find("--world-seed"), std::string::npos) << help.out;
+  const Parsed version = parse({"--version"});
+  EXPECT_EQ(version.code, 0);
+  EXPECT_EQ(version.out.rfind("fuse-sim (FUSE-SLAM) ", 0), 0u) << version.out;
+}
+
+TEST(SimCli, RejectsBadArgumentsNamingTheFlag) {
+  // Each bad command line and what the message (on stderr, exit code 2) must contain.
+  const std::vector<std::pair<std::vector<std::string>, std::string>> bad = {
+      {{}, "missing --scenario"},
+      {{"--scenario", "corridor", "--out", "x"}, "missing --seed"},
+      {{"--scenario", "corridor", "--seed", "1"}, "missing --out"},
+      {{"--seed", "1", "--out", "x"}, "missing --scenario"},
+      {{"--scenario", "mall", "--seed", "1", "--out", "x"}, "--scenario: unknown scenario 'mall'"},
+      {{"--scenario", "corridor", "--seed", "-1", "--out", "x"}, "--seed: expected a non-negative integer"},
+      {{"--scenario", "corridor", "--seed", "1x", "--out", "x"}, "--seed: expected a non-negative integer"},
+      {{"--scenario", "corridor", "--seed", "99999999999999999999999", "--out", "x"}, "--seed: '9999"},  // overflow
+      {{"--scenario", "corridor", "--seed", "1", "--world-seed", "w", "--out", "x"}, "--world-seed: expected"},
+      {{"--scenario", "corridor", "--seed", "1", "--duration", "0", "--out", "x"}, "--duration: must be between"},
+      {{"--scenario", "corridor", "--seed", "1", "--duration", "nan", "--out", "x"}, "--duration: must be between"},
+      {{"--scenario", "corridor", "--seed", "1", "--duration", "0.05", "--out", "x"}, "--duration: must be"},
+      {{"--scenario", "corridor", "--seed", "1", "--duration", "3s", "--out", "x"}, "--duration: expected a number"},
+      {{"--scenario", "corridor", "--seed", "1", "--lidar", "hdl64", "--out", "x"}, "--lidar: unknown model"},
+      {{"--scenario", "corridor", "--seed", "1", "--format", "bag", "--out", "x"}, "--format: unknown format"},
+      {{"--scenario", "corridor", "--seed", "1", "--out"}, "--out"},  // missing value
+      {{"--scenario", "corridor", "--seed", "1", "--out", ""}, "--out: empty directory name"},
+      {{"--scenario", "corridor", "--seed", "1", "--out", "x", "--verbose"}, "unknown option --verbose"},
+      {{"--scenario", "corridor", "--seed", "1", "--laps", "0", "--out", "x"}, "--laps: must be between 1 and 100"},
+      {{"--scenario", "corridor", "--seed", "1", "--laps", "101", "--out", "x"}, "--laps: must be between 1 and 100"},
+      {{"--scenario", "room", "--seed", "1", "--laps", "2", "--out", "x"}, "--laps: only the corridor"},  // no loop
   };
-  for (const auto& args : bad) EXPECT_THROW(parse_cli(args), CliError) << ::testing::PrintToString(args);
+  for (const auto& [args, message] : bad) {
+    const Parsed p = parse(args);
+    EXPECT_EQ(p.code, kExitUsage) << ::testing::PrintToString(args);
+    EXPECT_NE(p.err.find("fuse-sim: " + message), std::string::npos) << ::testing::PrintToString(args) << "\n" << p.err;
+  }
 }
 
 TEST(SimCli, ExitCodes) {
   EXPECT_EQ(run("--help"), 0);
+  EXPECT_EQ(run("--version"), 0);
   EXPECT_EQ(run(""), 2);
   EXPECT_EQ(run("--scenario corridor --seed abc --out /nonexistent"), 2);
   EXPECT_EQ(run("--scenario corridor --seed 1 --duration -3 --out x"), 2);

@@ -1,33 +1,23 @@
-// Command line of fuse-import.
+// Command line of fuse-import (CLI11, the convention of every binary: fuse/cli/cli.hpp).
 #pragma once
 
 #include <Eigen/Geometry>
 #include <optional>
-#include <stdexcept>
 #include <string>
-#include <vector>
 
 #include "importer.hpp"
 
 namespace fuse::import {
-
-/// A command line that cannot be used; main prints it with the usage and exits with 2.
-class ArgumentError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
 
 struct Arguments {
   std::string input;  ///< --input: .bag, rosbag2 directory, .db3 or .mcap
   std::string out;    ///< --out: the recording to write
   ImportConfig import;
   std::optional<Eigen::Isometry3d> T_imu_lidar;  ///< --extrinsic: stored as the recording's calibration
-  bool help = false;
 };
 
-/// Parses argv[1..]; throws ArgumentError naming the offending argument.
-Arguments parse_arguments(const std::vector<std::string>& args);
-
-std::string usage();
+/// Parses and checks argv into `a` before the bag is opened. std::nullopt: go on; otherwise the
+/// exit code to end with (0 after --help / --version, 2 after a usage error, printed naming the flag).
+std::optional<int> parse_arguments(int argc, char** argv, Arguments& a);
 
 }  // namespace fuse::import

@@ -80,6 +80,14 @@ TopicChoice choose_topics(const rosbag::BagReader& bag, const ImportConfig& conf
   return c;
 }
 
+std::optional<std::uint64_t> expected_messages(const rosbag::BagReader& bag, const TopicChoice& topics) {
+  const std::uint64_t imu = bag.topics()[topics.imu].message_count;
+  const std::uint64_t lidar = bag.topics()[topics.lidar].message_count;
+  // 0 is what the readers report when the bag declares no count: then no share can be shown.
+  if (imu == 0 || lidar == 0) return std::nullopt;
+  return imu + lidar;
+}
+
 ImportSummary import_bag(rosbag::BagReader& bag, const TopicChoice& topics, const ImportConfig& config,
                          io::RecordingWriter& writer) {
   ImportSummary s;
@@ -92,10 +100,11 @@ ImportSummary import_bag(rosbag::BagReader& bag, const TopicChoice& topics, cons
   rosbag::BagMessage m;
   double last_imu_t = -INFINITY, last_scan_end = -INFINITY, accel_sum = 0.0;
   std::uint64_t imu_seq = 0, scan_seq = 0;
-  Progress progress("import", imu_topic.message_count + lidar_topic.message_count);
+  Progress progress("import", expected_messages(bag, topics));
   try {
     while (bag.next(m)) {
-      progress.update(s.imu_messages + s.lidar_messages, -1.0);
+      // Messages read so far (this one included) and its receive time: the speed against real time.
+      progress.update(s.imu_messages + s.lidar_messages + 1, 1e-9 * static_cast<double>(m.time_ns));
       const auto& topic = bag.topics()[m.topic];
       const std::string where = topic.name + " message at " + std::to_string(m.time_ns) + " ns";
       if (m.topic == topics.imu) {

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -62,8 +63,14 @@ bool is_lidar_type(const std::string& type, LidarKind* kind = nullptr);
 /// Chooses the topics; throws TopicError listing the candidates when it cannot.
 TopicChoice choose_topics(const rosbag::BagReader& bag, const ImportConfig& config);
 
-/// Reads the chosen topics and writes the recording. An InputError of the bag mid-way ends the
-/// import (what was converted is kept) and is reported in ImportSummary::error.
+/// The number of messages of the chosen topics, when the bag declares both (index, metadata or
+/// statistics); unset when it does not (an unindexed ROS 1 bag, an MCAP file without statistics).
+std::optional<std::uint64_t> expected_messages(const rosbag::BagReader& bag, const TopicChoice& topics);
+
+/// Reads the chosen topics and writes the recording, logging a progress line every 5 s (share done
+/// and time left when expected_messages() is known, speed against the bag's receive time). An
+/// InputError of the bag mid-way ends the import (what was converted is kept) and is reported in
+/// ImportSummary::error.
 ImportSummary import_bag(rosbag::BagReader& bag, const TopicChoice& topics, const ImportConfig& config,
                          io::RecordingWriter& writer);
 

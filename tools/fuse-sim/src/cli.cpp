@@ -1,29 +1,45 @@
+// Command-line parsing of fuse-sim: CLI11 reads the options as text, then every value is checked
+// here with a message naming its flag (the checks and messages of the tool's first parser).
 #include "fuse/sim/cli.hpp"
 
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
-#include <set>
+#include <stdexcept>
+#include <string>
 
-#include "fuse/sim/lidar_pattern.hpp"
+#include "fuse/cli/cli.hpp"
 #include "fuse/sim/scenario.hpp"
 
 namespace fuse::sim {
 
 namespace {
 
-constexpr double kMaxDurationS = 1e5;  // sanity bound for --duration
+constexpr double kMaxDurationS = 1e5;    // sanity bound for --duration
 constexpr std::uint64_t kMaxLaps = 100;  // sanity bound for --laps
-constexpr double kMinDurationS = 0.1;  // one LiDAR frame
+constexpr double kMinDurationS = 0.1;    // one LiDAR frame
+
+/// A value that does not check; parse_arguments prints it as a usage error (exit code 2).
+class BadValue : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// The options as typed: CLI11 stores the text, the checks below turn it into SimOptions.
+struct Given {
+  std::string scenario, seed, world_seed, duration, laps, lidar, format, out;
+};
+
+bool given(const CLI::App& app, const char* flag) { return app.count(flag) > 0; }
 
 std::uint64_t parse_u64(const std::string& option, const std::string& text) {
   if (text.empty() || !std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; }))
-    throw CliError(option + ": expected a non-negative integer, got '" + text + "'");
+    throw BadValue(option + ": expected a non-negative integer, got '" + text + "'");
   errno = 0;
   char* end = nullptr;
   const unsigned long long v = std::strtoull(text.c_str(), &end, 10);
-  if (errno == ERANGE || *end != '\0') throw CliError(option + ": '" + text + "' is out of range (64-bit)");
+  if (errno == ERANGE || *end != '\0') throw BadValue(option + ": '" + text + "' is out of range (64-bit)");
   return static_cast<std::uint64_t>(v);
 }
 
@@ -32,88 +48,94 @@ double parse_duration(const std::string& text) {
   char* end = nullptr;
   const double v = std::strtod(text.c_str(), &end);
   if (text.empty() || end == text.c_str() || *end != '\0' || errno == ERANGE)
-    throw CliError("--duration: expected a number of seconds, got '" + text + "'");
+    throw BadValue("--duration: expected a number of seconds, got '" + text + "'");
   if (!std::isfinite(v) || v < kMinDurationS || v > kMaxDurationS)
-    throw CliError("--duration: must be between 0.1 s (one LiDAR frame) and " +
+    throw BadValue("--duration: must be between 0.1 s (one LiDAR frame) and " +
                    std::to_string(static_cast<int>(kMaxDurationS)) + " s, got '" + text + "'");
   return v;
 }
 
-}  // namespace
-
-std::string usage() {
-  return "usage: fuse-sim --scenario NAME --seed N [--world-seed M] [--duration S] [--laps N]\n"
-         "                [--lidar mid360|spinning32] [--format mcap|seqdir] --out DIR\n"
-         "\n"
-         "Simulates a LiDAR + IMU sequence with exact ground truth.\n"
-         "  --scenario NAME   corridor | stairs | room | campus\n"
-         "  --seed N          noise and motion variations (non-negative integer)\n"
-         "  --world-seed M    world layout (default: N)\n"
-         "  --duration S      cut the scenario short after S seconds\n"
-         "  --laps N          corridor: walk round the loop N times (default 1; e.g. a soak test)\n"
-         "  --lidar MODEL     mid360 (default) or spinning32\n"
-         "  --format F        mcap (DIR/recording.mcap, default) or seqdir (sequence directory in DIR)\n"
-         "  --out DIR         output directory (created if missing); also gets groundtruth.tum\n"
-         "                    (true T_world_imu at 200 Hz) and scenario.yaml (all parameters)\n"
-         "  --help            this text\n";
+void add_options(CLI::App& app, Given& g) {
+  app.add_option("--scenario", g.scenario, "corridor | stairs | room | campus (required)")->type_name("NAME");
+  app.add_option("--seed", g.seed, "noise and motion variations, a non-negative integer (required)")
+      ->type_name("N");
+  app.add_option("--world-seed", g.world_seed, "world layout (default: the --seed value)")->type_name("M");
+  app.add_option("--duration", g.duration, "cut the scenario short after S seconds (0.1 to 100000)")
+      ->type_name("S");
+  app.add_option("--laps", g.laps, "corridor: walk round the loop N times (default 1, at most 100; e.g. a soak test)")
+      ->type_name("N");
+  app.add_option("--lidar", g.lidar, "mid360 (default) or spinning32")->type_name("MODEL");
+  app.add_option("--format", g.format, "mcap (DIR/recording.mcap, default) or seqdir (a sequence directory in DIR)")
+      ->type_name("mcap|seqdir");
+  app.add_option("--out", g.out,
+                 "output directory, created if missing (required); also gets groundtruth.tum (true T_world_imu at "
+                 "200 Hz) and scenario.yaml (all parameters)")
+      ->type_name("DIR");
 }
 
-CliCommand parse_cli(const std::vector<std::string>& args) {
-  CliCommand cmd;
-  std::set<std::string> seen;
-  bool world_seed_given = false;
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "--help" || a == "-h") {
-      cmd.help = true;
-      return cmd;
-    }
-    static const std::set<std::string> kValued = {"--scenario", "--seed",   "--world-seed", "--duration",
-                                                  "--lidar",    "--format", "--out",        "--laps"};
-    if (!kValued.count(a)) throw CliError("unknown argument '" + a + "'");
-    if (!seen.insert(a).second) throw CliError(a + " given more than once");
-    if (i + 1 >= args.size()) throw CliError(a + " needs a value");
-    const std::string& v = args[++i];
-    if (a == "--scenario") {
-      const auto& names = scenario_names();
-      if (std::find(names.begin(), names.end(), v) == names.end())
-        throw CliError("--scenario: unknown scenario '" + v + "' (expected corridor, stairs, room or campus)");
-      cmd.options.scenario = v;
-    } else if (a == "--seed") {
-      cmd.options.seed = parse_u64(a, v);
-    } else if (a == "--world-seed") {
-      cmd.options.world_seed = parse_u64(a, v);
-      world_seed_given = true;
-    } else if (a == "--duration") {
-      cmd.options.duration_s = parse_duration(v);
-    } else if (a == "--laps") {
-      const std::uint64_t laps = parse_u64(a, v);
-      if (laps < 1 || laps > kMaxLaps) throw CliError("--laps: must be between 1 and " + std::to_string(kMaxLaps));
-      cmd.options.laps = static_cast<int>(laps);
-    } else if (a == "--lidar") {
-      if (v != "mid360" && v != "spinning32")
-        throw CliError("--lidar: unknown model '" + v + "' (expected mid360 or spinning32)");
-      cmd.options.lidar = v;
-    } else if (a == "--format") {
-      if (v == "mcap")
-        cmd.options.format = OutputFormat::kMcap;
-      else if (v == "seqdir")
-        cmd.options.format = OutputFormat::kSeqdir;
-      else
-        throw CliError("--format: unknown format '" + v + "' (expected mcap or seqdir)");
-    } else {  // --out
-      if (v.empty()) throw CliError("--out: empty directory name");
-      cmd.options.out_dir = v;
-    }
+/// --scenario, --lidar and --format: each a name from its list.
+void check_names(const CLI::App& app, const Given& g, SimOptions& o) {
+  if (given(app, "--scenario")) {
+    const auto& names = scenario_names();
+    if (std::find(names.begin(), names.end(), g.scenario) == names.end())
+      throw BadValue("--scenario: unknown scenario '" + g.scenario + "' (expected corridor, stairs, room or campus)");
+    o.scenario = g.scenario;
   }
-  if (cmd.options.scenario.empty()) throw CliError("missing --scenario");
-  if (!seen.count("--seed")) throw CliError("missing --seed");
-  if (cmd.options.out_dir.empty()) throw CliError("missing --out");
-  if (!world_seed_given) cmd.options.world_seed = cmd.options.seed;
-  if (cmd.options.laps > 1 && cmd.options.scenario != "corridor") {
-    throw CliError("--laps: only the corridor's path is a loop");
+  if (given(app, "--lidar")) {
+    if (g.lidar != "mid360" && g.lidar != "spinning32")
+      throw BadValue("--lidar: unknown model '" + g.lidar + "' (expected mid360 or spinning32)");
+    o.lidar = g.lidar;
   }
-  return cmd;
+  if (given(app, "--format")) {
+    if (g.format != "mcap" && g.format != "seqdir")
+      throw BadValue("--format: unknown format '" + g.format + "' (expected mcap or seqdir)");
+    o.format = g.format == "seqdir" ? OutputFormat::kSeqdir : OutputFormat::kMcap;
+  }
+}
+
+/// --seed, --world-seed (defaults to the seed), --duration and --laps: numbers within bounds.
+void check_numbers(const CLI::App& app, const Given& g, SimOptions& o) {
+  if (given(app, "--seed")) o.seed = parse_u64("--seed", g.seed);
+  o.world_seed = given(app, "--world-seed") ? parse_u64("--world-seed", g.world_seed) : o.seed;
+  if (given(app, "--duration")) o.duration_s = parse_duration(g.duration);
+  if (given(app, "--laps")) {
+    const std::uint64_t laps = parse_u64("--laps", g.laps);
+    if (laps < 1 || laps > kMaxLaps) throw BadValue("--laps: must be between 1 and " + std::to_string(kMaxLaps));
+    o.laps = static_cast<int>(laps);
+  }
+}
+
+/// The required options (checked here rather than by CLI11 to keep the messages) and --laps's
+/// restriction to the corridor.
+void check_complete(const CLI::App& app, const Given& g, SimOptions& o) {
+  if (given(app, "--out") && g.out.empty()) throw BadValue("--out: empty directory name");
+  o.out_dir = g.out;
+  if (!given(app, "--scenario")) throw BadValue("missing --scenario");
+  if (!given(app, "--seed")) throw BadValue("missing --seed");
+  if (!given(app, "--out")) throw BadValue("missing --out");
+  if (o.laps > 1 && o.scenario != "corridor") throw BadValue("--laps: only the corridor's path is a loop");
+}
+
+}  // namespace
+
+std::optional<int> parse_arguments(int argc, char** argv, SimOptions& options) {
+  const auto app = cli::make_app(
+      "fuse-sim",
+      "Simulates a LiDAR + IMU sequence with exact ground truth. Identical arguments give byte-identical files.",
+      "Exit codes: 0 success, 1 simulation failure, 2 bad command line.");
+  Given g;
+  add_options(*app, g);
+  if (const std::optional<int> code = cli::parse(*app, argc, argv)) return code;
+  SimOptions o;
+  try {
+    check_names(*app, g, o);
+    check_numbers(*app, g, o);
+    check_complete(*app, g, o);
+  } catch (const BadValue& e) {
+    return cli::usage_error(*app, e.what());
+  }
+  options = o;
+  return std::nullopt;
 }
 
 }  // namespace fuse::sim

@@ -1,27 +1,15 @@
-// Command line of fuse-sim (see tools/fuse-sim/src/main.cpp for the synopsis).
+// Command line of fuse-sim (CLI11, the convention of every binary: fuse/cli/cli.hpp; see
+// tools/fuse-sim/src/main.cpp for the synopsis).
 #pragma once
 
-#include <stdexcept>
-#include <string>
-#include <vector>
+#include <optional>
 
 #include "fuse/sim/simulator.hpp"
 
 namespace fuse::sim {
 
-/// A bad command line (the tool exits with code 2).
-class CliError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
-
-struct CliCommand {
-  bool help = false;
-  SimOptions options;
-};
-
-/// Parses the arguments (without the program name). Throws CliError naming what was wrong.
-CliCommand parse_cli(const std::vector<std::string>& args);
-std::string usage();
+/// Parses and checks argv into `options`. std::nullopt: go on; otherwise the exit code to end
+/// with (0 after --help / --version, 2 after a usage error, printed naming the flag).
+std::optional<int> parse_arguments(int argc, char** argv, SimOptions& options);
 
 }  // namespace fuse::sim
