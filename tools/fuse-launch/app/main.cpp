@@ -6,16 +6,21 @@
 //
 // Starts fuse-map, fuse-state and fuse-update, then fuse-ingest; when the replay is done it stops
 // the others in reverse order. SIGINT/SIGTERM stop everything the same way. Meanwhile it watches
-// the bus (RunMonitor) and prints a summary of restarts, gaps, counters and anything lost.
+// the bus (RunMonitor), logs a progress line every 5 s while the replay runs, and prints a summary
+// of restarts, gaps, counters and anything lost.
 // Exit codes: 0 every service did its part and nothing was lost (data gaps are not losses),
 // 1 a service failed, 2 usage or config, 3 the run lost something (named in the summary).
 #include <csignal>
+#include <cstdint>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 
 #include "arguments.hpp"
 #include "fuse/core/logging.hpp"
+#include "fuse/io/mcap_source.hpp"
 #include "fuse/launch/launcher.hpp"
+#include "fuse/launch/replay_progress.hpp"
 #include "run_monitor.hpp"
 
 namespace {
@@ -38,6 +43,19 @@ std::string own_directory(const char* argv0) {
   std::error_code ec;
   const auto exe = std::filesystem::read_symlink("/proc/self/exe", ec);
   return (ec ? std::filesystem::absolute(argv0) : exe).parent_path().string();
+}
+
+/// The IMU samples and scans the input holds, when it says so without being read through (an MCAP
+/// recording's statistics); unset for a sequence directory, a bag, a pcap or a damaged file.
+/// fuse-ingest reports an input it cannot read itself.
+std::optional<std::uint64_t> replay_events(const std::string& input) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(input, ec)) return std::nullopt;
+  try {
+    return fuse::io::McapSource(input).expected_events();
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
 }
 
 double unix_now() {
@@ -67,6 +85,8 @@ int main(int argc, char** argv) {
     std::cerr << "fuse-launch: config error: " << e.what() << "\n";
     return kExitUsage;
   }
+  const std::optional<std::uint64_t> total_events = replay_events(args.launch.input);
+  logger("launch")->info("{}", launch::describe_replay_size(total_events));
   install_signal_handlers();
   launch::LaunchOutcome outcome;
   try {
@@ -74,7 +94,7 @@ int main(int argc, char** argv) {
     options.log_dir = plan.log_dir;
     options.max_restarts = args.max_restarts;
     launch::ProcessSupervisor supervisor(options);
-    launch_tool::RunMonitor monitor(config, plan.trajectory_file, plan.map_dir);
+    launch_tool::RunMonitor monitor(config, plan.trajectory_file, plan.map_dir, total_events);
     outcome = launch::run_launch(plan, supervisor, args.timing, [] { return g_stop != 0; }, [&monitor] { monitor.poll(); });
     const launch_tool::RunMonitor::Verdict verdict = monitor.finish(outcome.reports);
     outcome.losses = verdict.losses;

@@ -1,6 +1,7 @@
 #include "run_monitor.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -40,11 +41,12 @@ std::size_t line_count(const std::string& path) {
 }  // namespace
 
 RunMonitor::RunMonitor(const service::SystemConfig& config, std::string trajectory_file, std::string map_dir,
-                       MonitorLimits limits)
+                       std::optional<std::uint64_t> replay_events, MonitorLimits limits)
     : limits_(limits),
       trajectory_file_(std::move(trajectory_file)),
       map_dir_(std::move(map_dir)),
-      health_period_s_(config.health.period_s) {
+      health_period_s_(config.health.period_s),
+      replay_events_(replay_events) {
   participant_ = transport::make_participant(config.transport, "fuse-launch");
   health_ = std::make_unique<transport::Subscriber<fuse_msgs::Health>>(
       *participant_, transport::topics::kHealth, [this](const fuse_msgs::Health& h) { on_health(h); });
@@ -53,6 +55,7 @@ RunMonitor::RunMonitor(const service::SystemConfig& config, std::string trajecto
         std::lock_guard<std::mutex> lock(mutex_);
         have_estimate_ = true;
         last_estimate_ = Clock::now();
+        ++poses_;
       });
   // Scans skipped before the first one processed are the static initialisation's, not losses. The
   // corrections come in order from fuse-update, so this count is exact (a health snapshot of
@@ -60,6 +63,8 @@ RunMonitor::RunMonitor(const service::SystemConfig& config, std::string trajecto
   corrections_ = std::make_unique<transport::Subscriber<fuse_msgs::Correction>>(
       *participant_, transport::topics::kCorrection, [this](const fuse_msgs::Correction& c) {
         std::lock_guard<std::mutex> lock(mutex_);
+        ++scans_answered_;
+        if (std::isfinite(c.t())) newest_scan_t_ = std::max(newest_scan_t_, c.t());  // skipped scans too
         if (c.result() != fuse_msgs::SCAN_SKIPPED) {
           first_scan_processed_ = true;
         } else if (!first_scan_processed_) {
@@ -113,9 +118,27 @@ bool RunMonitor::data_flows(Clock::time_point now) const {
   return scans_published_seen_ > 0 && std::chrono::duration<double>(now - last_scan_published_).count() <= window;
 }
 
+void RunMonitor::update_progress() {
+  launch::ReplaySnapshot s;
+  const std::uint64_t published = total("fuse-ingest", "scans_published");
+  s.events = published + total("fuse-ingest", "imu_published");
+  // Both count scans replayed from below: fuse-ingest's counter comes with its heartbeat (up to a
+  // health period old), the corrections as fuse-update answers (none while it is down).
+  s.scans = std::max(published, scans_answered_);
+  // Started at the first sample, not with the services: the rate against real time and the time
+  // left then leave out the start-up (discovery, fuse-ingest waiting for the pipeline).
+  if (!progress_ && s.events == 0 && newest_scan_t_ < 0.0) return;
+  if (!progress_) progress_.emplace(replay_events_);
+  s.poses = poses_;
+  s.sensor_t = newest_scan_t_;
+  s.tracking = state_tracking_;
+  progress_->update(s);
+}
+
 void RunMonitor::poll() {
   const auto now = Clock::now();
   std::lock_guard<std::mutex> lock(mutex_);
+  update_progress();
   if (!have_estimate_) return;  // start-up: static initialisation waits for the data
   // An estimate is there while corrections arrive and fuse-state does not say lost. The
   // correction rate follows the scans, so a silence of a few scan periods is not yet an outage.

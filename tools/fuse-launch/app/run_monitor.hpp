@@ -14,6 +14,9 @@
 //   - fuse-state lost at the end of the run.
 // It subscribes to health, state/corrected and map/status; reading the trajectory and the map
 // directory is left to finish(), once the services have stopped.
+//
+// While the replay runs it logs a progress line every few seconds (ReplayProgress), from the
+// first sample fuse-ingest publishes on.
 #pragma once
 
 #include <chrono>
@@ -21,10 +24,12 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "fuse/launch/process_supervisor.hpp"
+#include "fuse/launch/replay_progress.hpp"
 #include "fuse/service/system_config.hpp"
 #include "fuse/transport/msg_traits.hpp"
 
@@ -37,8 +42,9 @@ struct MonitorLimits {
 
 class RunMonitor {
  public:
+  /// replay_events: the IMU samples and scans the input holds, when known (for the progress line).
   RunMonitor(const service::SystemConfig& config, std::string trajectory_file, std::string map_dir,
-             MonitorLimits limits = {});
+             std::optional<std::uint64_t> replay_events, MonitorLimits limits = {});
   ~RunMonitor();
 
   /// Call regularly while the services run (the launcher's poll loop).
@@ -63,6 +69,8 @@ class RunMonitor {
   /// Sum over every instance of a service of a counter's last value.
   std::uint64_t total(const std::string& service, const std::string& counter) const;
   bool data_flows(Clock::time_point now) const;
+  /// Starts the progress line at the first sample published, then feeds it.
+  void update_progress();
 
   MonitorLimits limits_;
   std::string trajectory_file_, map_dir_;
@@ -83,6 +91,12 @@ class RunMonitor {
   Clock::time_point outage_start_{};
   double longest_outage_s_ = 0.0;
   int outages_over_limit_ = 0;
+  // Progress of the replay.
+  std::optional<std::uint64_t> replay_events_;
+  std::optional<launch::ReplayProgress> progress_;  ///< from the first sample published on
+  std::uint64_t poses_ = 0;                         ///< state/corrected estimates received
+  std::uint64_t scans_answered_ = 0;                ///< corrections received (one per scan)
+  double newest_scan_t_ = -1.0;                     ///< newest scan end time fuse-update answered
 
   std::unique_ptr<transport::Participant> participant_;
   std::unique_ptr<transport::Subscriber<fuse_msgs::Health>> health_;
