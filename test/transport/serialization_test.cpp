@@ -55,17 +55,20 @@ TEST(Serialization, LargeAndEmptySequencesRoundTrip) {
 }
 
 TEST(Serialization, TrailingPaddingIsAccepted) {
-  // RTPS pads payloads to 4 bytes; a QueryRequest is 29 bytes and arrives as 32.
-  const auto sent = make_query_request(2);
+  // RTPS pads payloads to 4 bytes: a Health ending in a 2-character error (its string ends
+  // with 3 bytes) arrives with padding after it.
+  auto sent = make_health(2);
+  sent.last_error("ab");
   Bytes bytes = serialize(sent);
-  ASSERT_EQ(bytes.size() % 4, 1u);
-  bytes.resize(bytes.size() + 3, 0);
-  fuse_msgs::QueryRequest received;
+  const std::size_t pad = (4 - bytes.size() % 4) % 4;
+  ASSERT_GT(pad, 0u) << "the sample must not end on a 4-byte boundary";
+  bytes.resize(bytes.size() + pad, 0);
+  fuse_msgs::Health received;
   ASSERT_TRUE(deserialize(bytes.data(), bytes.size(), received));
   EXPECT_TRUE(received == sent);
   // The padding declared in the encapsulation options is removed by the backends.
-  bytes[3] = 3;
-  EXPECT_EQ(detail::unpadded_size(bytes.data(), bytes.size()), bytes.size() - 3);
+  bytes[3] = static_cast<std::uint8_t>(pad);
+  EXPECT_EQ(detail::unpadded_size(bytes.data(), bytes.size()), bytes.size() - pad);
   bytes[3] = 0;
   EXPECT_EQ(detail::unpadded_size(bytes.data(), bytes.size()), bytes.size());
 }
