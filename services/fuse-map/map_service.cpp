@@ -233,11 +233,7 @@ void MapService::retry_if_due() {
   const MapRetryResult r = core_->retry();
   retry_at_ = r.more ? now : now + interval;
   if (r.journaled == 0) return;
-  count("observations_applied", r.journaled);
-  count("points_inserted", r.inserted);
-  for (const std::uint64_t key : r.changed_chunks) {
-    if (const PointChunk* chunk = core_->map().chunk(key)) publish_chunk(*chunk);
-  }
+  count("observations_applied", r.journaled);  // their points were applied (and published) on arrival
   refresh_stats();
   publish_status();
 }
@@ -268,9 +264,11 @@ void MapService::handle_observation(const fuse_msgs::MapObservation& o) {
   } else if (r.applied) {
     count("observations_applied");
     count("points_inserted", r.inserted);
-  } else if (!r.pending) {
+  } else if (r.pending) {
+    count("points_inserted", r.inserted);  // applied and served now; counted applied once journaled
+  } else {
     count("observations_frozen");  // localization: acknowledged, the map unchanged
-  }  // pending: counted by the core (observations_deferred), applied when journaled
+  }
   log()->debug("observation {}:{} ({} points): {}, {} inserted, {} chunks changed, acknowledged up to {}",
                o.session(), o.sequence_number(), o.points().size(), outcome, r.inserted, r.changed_chunks.size(),
                r.acked);

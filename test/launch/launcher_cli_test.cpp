@@ -75,7 +75,8 @@ TEST_F(LauncherCli, StartsTheServicesAndStopsThemInReverseWhenTheReplayIsDone) {
   const std::string common = "--config\n" + dir_.str("config.yaml") +
                              "\n--set\nestimator.update.max_iterations=3\n--set\ntransport.domain_id=45\n"
                              "--set\ntransport.vendor=cyclonedds\n";
-  EXPECT_EQ(args_of("fuse-map"), common + "--map-dir\n" + out() + "/map\n");
+  EXPECT_EQ(args_of("fuse-map"), common + "--map-dir\n" + out() + "/map\n--set\nmap_server.spill_directory=" + out() +
+                                    "/map-spill\n");
   EXPECT_EQ(args_of("fuse-state"), common + "--trajectory\n" + out() + "/trajectory.tum\n--calibration-from\n" +
                                        dir_.str("recording.mcap") + "\n--set\nstate.checkpoint_file=" + out() +
                                        "/state.checkpoint\n");
@@ -98,7 +99,8 @@ TEST_F(LauncherCli, LockstepIsTheDefaultAndHasNoStartWall) {
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_EQ(args_of("fuse-ingest"), "--config\n" + dir_.str("config.yaml") + "\n--input\n" +
                                         dir_.str("recording.mcap") + "\n--mode\nlockstep\n");
-  EXPECT_EQ(args_of("fuse-map"), "--config\n" + dir_.str("config.yaml") + "\n--map-dir\n" + out() + "/map\n");
+  EXPECT_EQ(args_of("fuse-map"), "--config\n" + dir_.str("config.yaml") + "\n--map-dir\n" + out() +
+                                    "/map\n--set\nmap_server.spill_directory=" + out() + "/map-spill\n");
 }
 
 TEST_F(LauncherCli, ExplicitMapDirIsPassed) {

@@ -90,12 +90,19 @@ TEST_F(MapOnTmpfs, FullDiskKeepsObservationsPendingAndJournalsThemInOrderOnceThe
     ASSERT_EQ(a.acked(), kBefore);
     ASSERT_EQ(b.acked(), kBefore);
     const std::size_t journal_before = core.stats().journal_records;
+    const std::size_t points_before = core.map().num_points();
 
     ASSERT_GT(disk_.fill(), 0u);
+    std::size_t changed_chunks = 0;
     for (std::uint64_t i = 0; i < kDuring; ++i) {
-      EXPECT_TRUE(a.send_next().pending);
-      EXPECT_TRUE(b.send_next().pending);
+      const MapApplyResult ra = a.send_next(), rb = b.send_next();
+      EXPECT_TRUE(ra.pending);
+      EXPECT_TRUE(rb.pending);
+      changed_chunks += ra.changed_chunks.size() + rb.changed_chunks.size();
     }
+    // Served while pending (a replica rebuilt now has them), though not acknowledged.
+    EXPECT_GT(core.map().num_points(), points_before);
+    EXPECT_GT(changed_chunks, 0u);
     // Degraded, nothing new acknowledged, everything kept in arrival order and counted.
     EXPECT_TRUE(core.degraded());
     EXPECT_TRUE(contains(core.degraded_reason(), "No space left on device")) << core.degraded_reason();
@@ -150,6 +157,48 @@ TEST_F(MapOnTmpfs, FullDiskKeepsObservationsPendingAndJournalsThemInOrderOnceThe
     }
     expect_within_two_percent(persisted.map(), reference.map());
     expect_same_map(persisted.map(), reference.map());  // arrival order kept: in fact identical
+  }
+}
+
+// fuse-map and the fuse-update that sent them killed together while the disk is full: with a
+// spill directory on another file system the pending observations survive the server (taken back
+// at start-up, journaled and acknowledged once there is space, the spill then emptied); without
+// one they are gone (their sender is gone too).
+TEST_F(MapOnTmpfs, PendingObservationsInTheSpillDirectorySurviveARestartOfTheServer) {
+  constexpr std::uint64_t kBefore = 10, kDuring = 20;
+  for (const bool spill : {true, false}) {
+    SCOPED_TRACE(spill ? "with a spill directory" : "without");
+    disk_.remove();
+    std::filesystem::remove_all(config_.directory);
+    MapServerConfig config = config_;
+    if (spill) config.spill_directory = (dir_ / "spill").string();
+    std::filesystem::remove_all(dir_ / "spill");
+    {
+      MapServerCore core(config);
+      Sender a(core, spill ? 31 : 32);
+      for (std::uint64_t i = 0; i < kBefore; ++i) a.send_next();
+      ASSERT_GT(disk_.fill(), 0u);
+      for (std::uint64_t i = 0; i < kDuring; ++i) EXPECT_TRUE(a.send_next().pending);
+    }  // the server ends with 20 observations pending; their sender is not asked again
+    disk_.remove();
+    const std::uint64_t session = spill ? 31 : 32;
+    {
+      MapServerCore restarted(config);
+      if (!spill) {
+        EXPECT_FALSE(restarted.degraded());
+        EXPECT_EQ(restarted.acked(session), kBefore);
+        continue;
+      }
+      EXPECT_EQ(restarted.stats().pending, kDuring) << "taken back from the spill directory";
+      ASSERT_TRUE(retry_until_running(restarted, {})) << restarted.degraded_reason();
+      EXPECT_EQ(restarted.acked(session), kBefore + kDuring);
+      EXPECT_EQ(restarted.stats().observations_applied, kBefore + kDuring);
+    }
+    // Emptied once journaled: the next start takes nothing back and has the same map.
+    MapServerCore third(config);
+    EXPECT_EQ(third.stats().pending, 0u);
+    EXPECT_FALSE(third.degraded());
+    EXPECT_EQ(third.acked(session), kBefore + kDuring);
   }
 }
 

@@ -16,14 +16,6 @@ constexpr std::size_t kMinServerVoxels = std::size_t{1} << 24;
 /// Longest retry interval accepted: a degraded server should try again within minutes.
 constexpr double kMaxRetryIntervalS = 600.0;
 
-/// Appends keys to sorted, keeping it sorted and unique.
-void merge_keys(std::vector<std::uint64_t>& sorted, const std::vector<std::uint64_t>& keys) {
-  std::vector<std::uint64_t> out;
-  out.reserve(sorted.size() + keys.size());
-  std::set_union(sorted.begin(), sorted.end(), keys.begin(), keys.end(), std::back_inserter(out));
-  sorted.swap(out);
-}
-
 std::string id(std::uint64_t session, std::uint64_t sequence) {
   return std::to_string(session) + ":" + std::to_string(sequence);
 }
@@ -45,6 +37,7 @@ SpatialIndexConfig MapServerConfig::default_index() {
 void MapServerConfig::load(ConfigNode& node) {
   node.get("directory", directory).get("chunk_size", chunk_size).get("snapshot_every", snapshot_every);
   node.get("fsync", fsync).get("max_pending_bytes", max_pending_bytes).get("retry_interval_s", retry_interval_s);
+  node.get("spill_directory", spill_directory);
   load_section(node, "policy", policy);
   load_section(node, "index", index);
   node.check(!directory.empty(), "directory", "must be set");
@@ -93,6 +86,7 @@ MapServerCore::MapServerCore(const MapServerConfig& config, MapStorage::Access a
   log->info("map {}: {} points in {} chunks, epoch {}, mode {} ({})", config_.directory, map_.num_points(),
             map_.num_chunks(), meta_.epoch, meta_.mode, load_report_.summary());
   if (access_ != MapStorage::Access::kReadWrite) return;
+  open_spill();
   if (!storage_->writable()) {
     log->error("map directory {} cannot be written ({}): serving what it holds, acknowledging nothing new, "
                "trying again every {} s",
@@ -172,7 +166,7 @@ MapApplyResult MapServerCore::apply(std::uint64_t session, std::uint64_t sequenc
     }
     journal_failed(observation);
   }
-  keep_pending(std::move(observation));
+  result.changed_chunks = keep_pending(std::move(observation), result.inserted);
   result.pending = true;
   result.acked = acked(session);
   return result;
@@ -184,7 +178,62 @@ void MapServerCore::journal_failed(const MapObservation& o) {
                                         seconds(config_.retry_interval_s) + " s");
 }
 
-void MapServerCore::keep_pending(MapObservation observation) {
+void MapServerCore::open_spill() {
+  if (config_.spill_directory.empty()) return;
+  auto log = logger("map");
+  try {
+    spill_ = std::make_unique<MapStorage>(config_.spill_directory, config_.fsync, MapStorage::Access::kReadWrite);
+    PointMap unused(config_.chunk_size);
+    MapMeta unused_meta;
+    std::size_t taken = 0, already = 0;
+    spill_->load(unused, unused_meta, [&](const MapObservation& o) {
+      if (duplicate(o.session, o.sequence)) {
+        ++already;  // journaled in the map directory before the previous instance ended
+        return;
+      }
+      std::size_t inserted = 0;
+      keep_pending(o, inserted, false);
+      ++taken;
+    });
+    spill_dirty_ = taken + already > 0;
+    if (spill_dirty_) {
+      log->warn("spill directory {}: {} observations a previous instance could not journal taken back as pending "
+                "({} were journaled already)",
+                config_.spill_directory, taken, already);
+    }
+    if (pending_.empty()) clear_spill();
+  } catch (const MapStorageError& e) {
+    spill_.reset();
+    counters_.count("spill_errors", "spill directory " + config_.spill_directory +
+                                        " not usable: " + e.what() + "; pending observations are kept in memory only");
+  }
+}
+
+void MapServerCore::clear_spill() {
+  if (!spill_ || !spill_dirty_) return;
+  try {
+    spill_->snapshot(PointMap(config_.chunk_size), MapMeta{});  // an empty snapshot truncates its journal
+    spill_dirty_ = false;
+  } catch (const MapStorageError& e) {
+    counters_.count("spill_errors", std::string("spill journal not emptied: ") + e.what());
+  }
+}
+
+std::vector<std::uint64_t> MapServerCore::keep_pending(MapObservation observation, std::size_t& inserted, bool spill) {
+  if (spill && spill_) {
+    if (spill_->append({&observation}) == 1) {
+      spill_dirty_ = true;
+    } else {
+      counters_.count("spill_errors", "observation " + id(observation.session, observation.sequence) +
+                                          " not written to the spill directory: " + spill_->write_error() +
+                                          "; kept in memory only");
+      spill_->make_writable();
+    }
+  }
+  // Served at once (the replicas of a fuse-update restarted meanwhile get it), acknowledged only
+  // once journaled. Pending observations are journaled in arrival order and nothing is applied
+  // between them, so the map is the one journal-then-apply would give.
+  std::vector<std::uint64_t> changed = apply_points(observation.points, inserted);
   const std::size_t bytes = sizeof(MapObservation) + observation.points.size() * sizeof(Eigen::Vector3f);
   pending_ids_.insert({observation.session, observation.sequence});
   const std::string name = id(observation.session, observation.sequence);
@@ -204,6 +253,7 @@ void MapServerCore::keep_pending(MapObservation observation) {
     pending_bytes_ -= pending_.front().bytes;
     pending_.pop_front();
   }
+  return changed;
 }
 
 bool MapServerCore::snapshot_due() const {
@@ -255,9 +305,9 @@ MapRetryResult MapServerCore::retry() {
     const std::size_t written = storage_->append(batch);
     for (std::size_t i = 0; i < written; ++i) {
       const Pending& p = pending_.front();
-      std::size_t inserted = 0;
-      merge_keys(result.changed_chunks, apply_durable(p.observation, inserted));
-      result.inserted += inserted;
+      // Its points are in the map since it arrived: now it is durable, it is acknowledged.
+      meta_.acks.add_durable(p.observation.session, p.observation.sequence);
+      ++meta_.observations;
       pending_ids_.erase({p.observation.session, p.observation.sequence});
       pending_bytes_ -= p.bytes;
       pending_.pop_front();
@@ -273,6 +323,7 @@ MapRetryResult MapServerCore::retry() {
     result.more = !pending_.empty();
     if (result.more) return result;
     log->info("every pending observation is journaled and acknowledged");
+    clear_spill();
   }
   if (retries_to_snapshot_ > 0) --retries_to_snapshot_;
   if (snapshot_due() && retries_to_snapshot_ == 0) try_snapshot(snapshot_error_.empty() ? "due" : "retried");

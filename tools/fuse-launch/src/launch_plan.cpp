@@ -54,7 +54,10 @@ LaunchPlan make_launch_plan(const LaunchOptions& o, double start_wall) {
   const std::string map_dir = o.map_dir.empty() ? path_in(o.out_dir, "map") : o.map_dir;
   plan.map_dir = map_dir;
   plan.trajectory_file = path_in(o.out_dir, "trajectory.tum");
-  plan.services.push_back(service(o, "fuse-map", {"--map-dir", map_dir}));
+  // The spill directory (pending observations while the map disk cannot be written) beside the
+  // logs, so that it survives a restart of fuse-map; on another file system when --map-dir is.
+  plan.services.push_back(service(o, "fuse-map", {"--map-dir", map_dir, "--set",
+                                                  "map_server.spill_directory=" + path_in(o.out_dir, "map-spill")}));
   // As fuse-run does, the recording's own extrinsic (when it has one) overrides the config's.
   plan.services.push_back(service(o, "fuse-state", {"--trajectory", path_in(o.out_dir, "trajectory.tum"),
                                                     "--calibration-from", o.input, "--set",

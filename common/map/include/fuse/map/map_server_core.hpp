@@ -20,11 +20,16 @@
 // unwritable directory at start-up): observations that cannot be journaled are kept in memory in
 // arrival order (pending, bounded by max_pending_bytes: beyond it the oldest is dropped and
 // counted; it stays unacknowledged, so its sender still holds it), and nothing new is
-// acknowledged. retry() (every retry_interval_s) makes the directory writable again if it can,
-// journals and applies the pending in order, then writes a due snapshot (one that keeps failing
+// acknowledged. A pending observation is applied to the map when it arrives, so that it is
+// served (a replica rebuilt meanwhile has it); as pending observations are journaled in arrival
+// order with nothing applied between them, the map is the one journal-then-apply gives.
+// retry() (every retry_interval_s) makes the directory writable again if it can, journals the
+// pending in order and acknowledges them, then writes a due snapshot (one that keeps failing
 // is tried at growing intervals, at most every kMaxSnapshotBackoff retries: it rewrites the whole
 // map each time); the core is running again once nothing is pending and the journal and
-// snapshots work. Repeated failures are logged
+// snapshots work. With a spill directory on another file system, the pending observations are
+// journaled there as well and survive a restart of the server (taken back at start-up, emptied
+// once all are journaled in the map directory). Repeated failures are logged
 // rate-limited, with counts (fuse::Counters).
 // Restart: snapshot + journal replay rebuild the same map, point for point, and the same
 // acknowledged sequences. A damaged load keeps every good record and, with write access, is
@@ -74,6 +79,12 @@ struct MapServerConfig {
   /// (the oldest dropped beyond it: unacknowledged, so its sender still holds it).
   std::size_t max_pending_bytes = kDefaultMaxPendingBytes;
   double retry_interval_s = 2.0;     ///< while degraded: s between attempts to write again
+  /// Where the observations kept in memory are also written (a journal of their own), on another
+  /// file system than `directory` (the service's runtime directory, a tmpfs): a fuse-map killed
+  /// while the map disk is full then finds them again at start-up, although the fuse-update that
+  /// sent them may be gone too. Emptied once every pending observation is journaled. Empty: kept
+  /// in memory only.
+  std::string spill_directory;
   MapPolicyConfig policy;            ///< policy.mode is the mode at start-up
   /// The policy's nearest-neighbour index over the map's points. A restart rebuilds the same map
   /// when the index holds every point: it never evicts (max_voxels), and max_points_per_voxel
@@ -87,7 +98,7 @@ struct MapServerConfig {
 struct MapApplyResult {
   bool duplicate = false;  ///< already acknowledged, journaled or pending: nothing done
   bool applied = false;    ///< journaled and offered to the policy (mapping mode)
-  bool pending = false;    ///< not journaled (degraded): kept in memory, not acknowledged
+  bool pending = false;    ///< not journaled (degraded): applied and served, kept, not acknowledged
   std::size_t inserted = 0;
   std::size_t rejected = 0;  ///< points not finite or outside the chunk key range, dropped
   std::vector<std::uint64_t> changed_chunks;  ///< ascending keys
@@ -95,9 +106,7 @@ struct MapApplyResult {
 };
 
 struct MapRetryResult {
-  std::size_t journaled = 0;  ///< pending observations journaled and applied by this call
-  std::size_t inserted = 0;
-  std::vector<std::uint64_t> changed_chunks;  ///< ascending keys
+  std::size_t journaled = 0;  ///< pending observations journaled and acknowledged by this call
   bool more = false;          ///< pending observations are left and writing works: call again now
 };
 
@@ -199,7 +208,13 @@ class MapServerCore {
   /// Applies a journaled observation to the map and acknowledges it as far as the rule allows.
   std::vector<std::uint64_t> apply_durable(const MapObservation& observation, std::size_t& inserted);
   bool duplicate(std::uint64_t session, std::uint64_t sequence) const;
-  void keep_pending(MapObservation observation);
+  /// Applies its points to the map (the changed chunks returned, `inserted` set) and keeps it
+  /// until it is journaled; spill: also write it to the spill journal (not when it came from there).
+  std::vector<std::uint64_t> keep_pending(MapObservation observation, std::size_t& inserted, bool spill = true);
+  /// Opens the spill directory and takes back what a previous instance left pending there.
+  void open_spill();
+  /// Empties the spill journal once nothing is pending.
+  void clear_spill();
   void journal_failed(const MapObservation& observation);
   bool snapshot_due() const;
   /// Writes a snapshot into the directory; false (counted, kept for degraded_reason) on failure.
@@ -208,6 +223,8 @@ class MapServerCore {
   MapServerConfig config_;
   MapStorage::Access access_;
   std::unique_ptr<MapStorage> storage_;
+  std::unique_ptr<MapStorage> spill_;  ///< the pending observations' own journal (spill_directory)
+  bool spill_dirty_ = false;           ///< the spill journal holds records
   PointMap map_;
   MapMeta meta_;
   std::unique_ptr<SpatialIndex> index_;
