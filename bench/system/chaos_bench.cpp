@@ -37,6 +37,7 @@
 #include <atomic>
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstring>
 #include <filesystem>
@@ -50,6 +51,7 @@
 #include <thread>
 #include <vector>
 
+#include "fuse/cli/cli.hpp"
 #include "fuse/eval/evaluate.hpp"
 #include "fuse/eval/trajectory.hpp"
 #include "fuse/launch/process.hpp"
@@ -77,62 +79,88 @@ struct Options {
   bool check = false;
 };
 
-[[noreturn]] void usage_error(const std::string& what) {
-  std::cerr << "fuse-bench-chaos: " << what << "\n"
-            << "usage: fuse-bench-chaos --config FILE --input RECORDING --gt GT.tum --out DIR [--domain N] [--seed S]\n"
-               "       [--kill-every MIN:MAX] [--double-fraction F] [--map-tmpfs-mb MB] [--disk-full-at S:FOR]\n"
-               "       [--read-only-at S:FOR] [--query-hz HZ] [--bin-dir DIR] [--report FILE] [--label TEXT] [--check]\n";
-  std::exit(2);
-}
+/// A value that parses as a finite number (CLI11 takes "inf" and "nan" for numbers).
+const CLI::Validator kFinite(
+    [](std::string& text) {
+      double v = 0.0;
+      if (CLI::detail::lexical_cast(text, v) && std::isfinite(v)) return std::string();
+      return "'" + text + "' is not a finite number";
+    },
+    "", "FINITE");
 
-std::pair<double, double> pair_of(const std::string& flag, const std::string& v) {
+/// "A:B" as two finite numbers; std::nullopt when it is not.
+std::optional<std::pair<double, double>> pair_of(const std::string& v) {
   const auto colon = v.find(':');
-  try {
-    if (colon == std::string::npos) throw std::invalid_argument(v);
-    return {std::stod(v.substr(0, colon)), std::stod(v.substr(colon + 1))};
-  } catch (const std::exception&) {
-    usage_error(flag + ": expected A:B, got '" + v + "'");
+  std::pair<double, double> out;
+  if (colon == std::string::npos || !CLI::detail::lexical_cast(v.substr(0, colon), out.first) ||
+      !CLI::detail::lexical_cast(v.substr(colon + 1), out.second) || !std::isfinite(out.first) ||
+      !std::isfinite(out.second)) {
+    return std::nullopt;
   }
+  return out;
 }
 
-Options parse(int argc, char** argv) {
-  Options o;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--check") {
-      o.check = true;
-      continue;
-    }
-    if (i + 1 >= argc) usage_error(a + " needs a value");
-    const std::string v = argv[++i];
-    try {
-      if (a == "--config") o.config = v;
-      else if (a == "--input") o.input = v;
-      else if (a == "--gt") o.gt = v;
-      else if (a == "--out") o.out = v;
-      else if (a == "--bin-dir") o.bin_dir = v;
-      else if (a == "--report") o.report = v;
-      else if (a == "--label") o.label = v;
-      else if (a == "--domain") o.domain = std::stoi(v);
-      else if (a == "--seed") o.seed = static_cast<unsigned>(std::stoul(v));
-      else if (a == "--double-fraction") o.double_fraction = std::stod(v);
-      else if (a == "--map-tmpfs-mb") o.tmpfs_mb = std::stoi(v);
-      else if (a == "--query-hz") o.query_hz = std::stod(v);
-      else if (a == "--kill-every") std::tie(o.kill_min, o.kill_max) = pair_of(a, v);
-      else if (a == "--disk-full-at") std::tie(o.disk_full_at, o.disk_full_for) = pair_of(a, v);
-      else if (a == "--read-only-at") std::tie(o.read_only_at, o.read_only_for) = pair_of(a, v);
-      else usage_error("unknown argument '" + a + "'");
-    } catch (const std::logic_error&) {
-      usage_error(a + ": '" + v + "' is not a number");
-    }
+/// An "A:B" option (shown as `type`): two numbers, stored into `a` and `b` when parsed.
+void add_pair(CLI::App& app, const std::string& name, const std::string& type, double& a, double& b,
+              const std::string& help) {
+  app.add_option_function<std::string>(
+         name,
+         [name, type, &a, &b](const std::string& v) {
+           const auto p = pair_of(v);
+           if (!p) throw CLI::ValidationError(name, "expected " + type + ", got '" + v + "'");
+           std::tie(a, b) = *p;
+         },
+         help)
+      ->type_name(type);
+}
+
+/// The files and directories of the run.
+void add_path_options(CLI::App& app, Options& o) {
+  app.add_option("--config", o.config, "the system config (YAML)")->type_name("FILE")->required();
+  app.add_option("--input", o.input, "the recording to replay")->type_name("RECORDING")->required();
+  app.add_option("--gt", o.gt, "its ground truth (TUM)")->type_name("GT.tum")->required();
+  app.add_option("--out", o.out, "work directory")->type_name("DIR")->required();
+  app.add_option("--bin-dir", o.bin_dir, "where fuse-launch and the services are (default: this binary's directory)")
+      ->type_name("DIR");
+  app.add_option("--report", o.report, "Markdown file the figures are appended to")->type_name("FILE");
+  app.add_option("--label", o.label, "the report's heading (default: --input)")->type_name("TEXT");
+}
+
+/// The chaos: kills, disk faults, and the planner client's calls.
+void add_chaos_options(CLI::App& app, Options& o) {
+  app.add_option("--domain", o.domain, "DDS domain of the run; the run without kills uses N + 1 (default 36)")
+      ->type_name("N")
+      ->check(CLI::Range(0, 100));
+  app.add_option("--seed", o.seed, "seed of the kill schedule (default 1)")->type_name("S");
+  add_pair(app, "--kill-every", "MIN:MAX", o.kill_min, o.kill_max, "a kill every U(MIN, MAX) s (default 3:8)");
+  app.add_option("--double-fraction", o.double_fraction, "share of the kills that take two services (default 0.3)")
+      ->type_name("F")->check(kFinite)->check(CLI::Range(0.0, 1.0));
+  app.add_option("--map-tmpfs-mb", o.tmpfs_mb, "the map directory on a tmpfs of MB (root; 0 = none, the default)")
+      ->type_name("MB");
+  add_pair(app, "--disk-full-at", "S:FOR", o.disk_full_at, o.disk_full_for, "fill the map disk at S s for FOR s");
+  add_pair(app, "--read-only-at", "S:FOR", o.read_only_at, o.read_only_for, "map disk read-only at S s for FOR s");
+  app.add_option("--query-hz", o.query_hz, "the planner client's calls per second (default 20)")
+      ->type_name("HZ")->check(kFinite);
+  app.add_flag("--check", o.check, "exit 1 unless the figures meet the bounds (see the source's header)");
+}
+
+/// Parses and checks argv into `o`. std::nullopt: go on; otherwise the exit code to end with.
+std::optional<int> parse(int argc, char** argv, Options& o) {
+  const auto app = fuse::cli::make_app(
+      "fuse-bench-chaos",
+      "Chaos soak of the deployed system: fuse-launch --restart replays a recording in real time while random "
+      "services are SIGKILLed and the map disk fails; prints a Markdown table of figures (docs/chaos.md).",
+      "Exit codes: 0 done (and, with --check, the bounds met), 1 the run without kills failed or a check failed, "
+      "2 bad arguments.");
+  add_path_options(*app, o);
+  add_chaos_options(*app, o);
+  if (const std::optional<int> code = fuse::cli::parse(*app, argc, argv)) return code;
+  if (!(o.kill_min > 0.0 && o.kill_max >= o.kill_min)) {
+    return fuse::cli::usage_error(*app, "--kill-every: need 0 < MIN <= MAX");
   }
-  if (o.config.empty() || o.input.empty() || o.gt.empty() || o.out.empty()) {
-    usage_error("--config, --input, --gt and --out are required");
-  }
-  if (!(o.kill_min > 0.0 && o.kill_max >= o.kill_min)) usage_error("--kill-every: need 0 < MIN <= MAX");
-  if (!(o.query_hz > 0.0 && o.query_hz <= 1000.0)) usage_error("--query-hz: must be in (0, 1000]");
+  if (!(o.query_hz > 0.0 && o.query_hz <= 1000.0)) return fuse::cli::usage_error(*app, "--query-hz: must be in (0, 1000]");
   if (o.bin_dir.empty()) o.bin_dir = fs::read_symlink("/proc/self/exe").parent_path().string();
-  return o;
+  return std::nullopt;
 }
 
 double seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
@@ -247,7 +275,8 @@ struct Answer {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const Options o = parse(argc, argv);
+  Options o;
+  if (const std::optional<int> code = parse(argc, argv, o)) return *code;
   fs::create_directories(o.out);
   std::cout << "fuse-bench-chaos: " << (o.label.empty() ? o.input : o.label) << "\n";
 

@@ -113,6 +113,7 @@
 #include <thread>
 #include <vector>
 
+#include "fuse/cli/cli.hpp"
 #include "fuse/core/logging.hpp"
 #include "fuse/core/scheduling.hpp"
 #include "fuse/io/cdr_codec.hpp"
@@ -165,113 +166,105 @@ struct Options {
   double idle_s = 10.0;
 };
 
-void usage(std::ostream& os) {
-  os << "usage: fuse-bench-pipeline --config FILE [--set key=value]... [--domain N] [--vendor V]\n"
-        "         --start-wall UNIX_S [--rate R] (--input RECORDING | --t0 T --duration S)\n"
-        "         [--warmup-s S] [--tail-s S] [--idle-query-s S] [--query-hz HZ] [--query-lag-ms MS]\n"
-        "         [--query-deadline-ms MS] [--query-slice-us US] [--no-query] [--no-breakdown] [--observe-scan]\n"
-        "         [--csv PREFIX]\n"
-        "       fuse-bench-pipeline --config FILE [--set key=value]... --lockstep-scans N [--idle-s S]\n"
-        "       fuse-bench-pipeline --codec --input RECORDING\n"
-        "  Attach to a pipeline replaying in real time (fuse-ingest --mode realtime with the same\n"
-        "  --start-wall and --rate); prints query RPC round trip, IMU->odometry and\n"
-        "  scan->correction latencies as 'key: value' lines (milliseconds).\n";
+/// A value that parses as a finite number (CLI11 takes "inf" and "nan" for numbers).
+const CLI::Validator kFinite(
+    [](std::string& text) {
+      double v = 0.0;
+      if (CLI::detail::lexical_cast(text, v) && std::isfinite(v)) return std::string();
+      return "'" + text + "' is not a finite number";
+    },
+    "", "FINITE");
+
+/// The options of the real-time attach mode: the schedule and the window measured.
+void add_schedule_options(CLI::App& app, Options& o) {
+  app.add_option("--input", o.input, "the recording fuse-ingest replays (t0 and the window come from it)")
+      ->type_name("RECORDING");
+  app.add_option("--start-wall", o.start_wall, "the --start-wall fuse-ingest was given (UNIX time)")
+      ->type_name("UNIX_S")->check(kFinite);
+  app.add_option("--rate", o.rate, "the --rate fuse-ingest was given (default 1)")->type_name("R")->check(kFinite);
+  app.add_option("--t0", o.t0, "the recording's first event time, instead of reading --input")
+      ->type_name("T")->check(kFinite);
+  app.add_option("--duration", o.duration, "data seconds after t0 to measure (with --t0)")
+      ->type_name("S")->check(kFinite);
+  app.add_option("--warmup-s", o.warmup_s, "data seconds after t0 not measured (default 2)")
+      ->type_name("S")->check(kFinite);
+  app.add_option("--tail-s", o.tail_s, "wait after the window for the last answers (default 3)")
+      ->type_name("S")->check(kFinite);
+  app.add_option("--csv", o.csv, "write the raw samples to PREFIX-{scans,odometry,queries}.csv")->type_name("PREFIX");
+  app.add_flag_callback("--no-breakdown", [&o] { o.breakdown = false; }, "do not listen to imu and the history RPC");
+  app.add_flag("--observe-scan", o.observe_scan, "also read the scans (their hop; perturbs a little)");
 }
 
-double number(const std::string& name, const std::string& text) {
-  std::size_t used = 0;
-  double v = 0.0;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != text.size() || !std::isfinite(v)) throw std::invalid_argument(name + ": '" + text + "' is not a number");
-  return v;
+/// The options of the query client's calls (section (a)).
+void add_query_options(CLI::App& app, Options& o) {
+  app.add_option("--query-hz", o.query_hz, "query calls per second (default 1000)")->type_name("HZ")->check(kFinite);
+  app.add_option("--query-lag-ms", o.query_lag_ms, "at(t) asks for 'now' on the schedule minus this (default 20)")
+      ->type_name("MS")->check(kFinite);
+  app.add_option("--query-deadline-ms", o.query_deadline_ms, "a call without a reply by then is an error (default 200)")
+      ->type_name("MS");
+  app.add_option("--query-slice-us", o.query_slice_us,
+                 "scheduler slice of the client's threads; 0 = kernel default (default 100)")
+      ->type_name("US");
+  app.add_option("--idle-query-s", o.idle_query_s, "the idle baseline's calls after the replay (default 5)")
+      ->type_name("S")->check(kFinite);
+  app.add_flag_callback("--no-query", [&o] { o.query = false; }, "make no query calls");
 }
 
-Options parse(int argc, char** argv) {
-  Options o;
-  std::vector<std::string> a(argv + 1, argv + argc);
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    const std::string& k = a[i];
-    auto value = [&]() -> const std::string& {
-      if (i + 1 >= a.size()) throw std::invalid_argument(k + " needs a value");
-      return a[++i];
-    };
-    if (k == "--help" || k == "-h") {
-      usage(std::cout);
-      std::exit(0);
-    } else if (k == "--config") {
-      o.config_file = value();
-    } else if (k == "--set") {
-      o.overrides.push_back(value());
-    } else if (k == "--domain") {
-      o.overrides.push_back("transport.domain_id=" + value());
-    } else if (k == "--vendor") {
-      o.overrides.push_back("transport.vendor=" + value());
-    } else if (k == "--input") {
-      o.input = value();
-    } else if (k == "--start-wall") {
-      o.start_wall = number(k, value());
-    } else if (k == "--rate") {
-      o.rate = number(k, value());
-    } else if (k == "--t0") {
-      o.t0 = number(k, value());
-    } else if (k == "--duration") {
-      o.duration = number(k, value());
-    } else if (k == "--warmup-s") {
-      o.warmup_s = number(k, value());
-    } else if (k == "--idle-query-s") {
-      o.idle_query_s = number(k, value());
-    } else if (k == "--tail-s") {
-      o.tail_s = number(k, value());
-    } else if (k == "--query-hz") {
-      o.query_hz = number(k, value());
-    } else if (k == "--query-lag-ms") {
-      o.query_lag_ms = number(k, value());
-    } else if (k == "--query-deadline-ms") {
-      o.query_deadline_ms = static_cast<int>(number(k, value()));
-    } else if (k == "--query-slice-us") {
-      o.query_slice_us = static_cast<int>(number(k, value()));
-    } else if (k == "--no-query") {
-      o.query = false;
-    } else if (k == "--no-breakdown") {
-      o.breakdown = false;
-    } else if (k == "--csv") {
-      o.csv = value();
-    } else if (k == "--codec") {
-      o.codec = true;
-    } else if (k == "--observe-scan") {
-      o.observe_scan = true;
-    } else if (k == "--lockstep-scans") {
-      const double n = number(k, value());
-      if (!(n >= 1.0)) throw std::invalid_argument("--lockstep-scans must be at least 1");
-      o.lockstep_scans = static_cast<std::size_t>(n);
-    } else if (k == "--idle-s") {
-      o.idle_s = number(k, value());
-    } else {
-      throw std::invalid_argument("unknown argument '" + k + "'");
-    }
-  }
-  if (o.codec) {
-    if (o.input.empty()) throw std::invalid_argument("--codec needs --input");
-    return o;
-  }
-  if (o.config_file.empty()) throw std::invalid_argument("--config is required");
-  if (o.lockstep_scans) return o;
-  if (!o.start_wall) throw std::invalid_argument("--start-wall is required (the one fuse-ingest was given)");
-  if (o.input.empty() && !(o.t0 && o.duration)) throw std::invalid_argument("give --input, or --t0 and --duration");
-  if (!(o.rate > 0.0)) throw std::invalid_argument("--rate must be positive");
-  if (!(o.query_hz > 0.0 && o.query_hz <= 20000.0)) throw std::invalid_argument("--query-hz must be in (0, 20000]");
-  if (o.query_deadline_ms <= 0) throw std::invalid_argument("--query-deadline-ms must be positive");
-  if (!fuse::valid_scheduler_slice(o.query_slice_us)) {
-    throw std::invalid_argument("--query-slice-us must be 0 or in [100, 100000]");
-  }
+/// The other two modes: lockstep throughput and the scan codec's cost.
+void add_mode_options(CLI::App& app, Options& o) {
+  app.add_option_function<long long>(
+         "--lockstep-scans",
+         [&o](long long n) {
+           if (n < 1) throw CLI::ValidationError("--lockstep-scans", "must be at least 1");
+           o.lockstep_scans = static_cast<std::size_t>(n);
+         },
+         "lockstep throughput: end after N corrections")
+      ->type_name("N");
+  app.add_option("--idle-s", o.idle_s, "lockstep: end after this long without a correction (default 10)")
+      ->type_name("S")->check(kFinite);
+  app.add_flag("--codec", o.codec, "scan codec cost on --input (no transport)");
+}
+
+/// What the options do not allow together; empty when they check.
+std::string check(const Options& o) {
+  if (o.codec) return o.input.empty() ? "--codec needs --input" : "";
+  if (o.config_file.empty()) return "--config is required";
+  if (o.lockstep_scans) return "";
+  if (!o.start_wall) return "--start-wall is required (the one fuse-ingest was given)";
+  if (o.input.empty() && !(o.t0 && o.duration)) return "give --input, or --t0 and --duration";
+  if (!(o.rate > 0.0)) return "--rate must be positive";
+  if (!(o.query_hz > 0.0 && o.query_hz <= 20000.0)) return "--query-hz must be in (0, 20000]";
+  if (o.query_deadline_ms <= 0) return "--query-deadline-ms must be positive";
+  if (!fuse::valid_scheduler_slice(o.query_slice_us)) return "--query-slice-us must be 0 or in [100, 100000]";
   if (o.warmup_s < 0.0 || o.tail_s < 0.0 || o.query_lag_ms < 0.0) {
-    throw std::invalid_argument("--warmup-s, --tail-s and --query-lag-ms must not be negative");
+    return "--warmup-s, --tail-s and --query-lag-ms must not be negative";
   }
-  return o;
+  return "";
+}
+
+/// Parses and checks argv into `o`. std::nullopt: go on; otherwise the exit code to end with.
+std::optional<int> parse(int argc, char** argv, Options& o) {
+  const auto app = fuse::cli::make_app(
+      "fuse-bench-pipeline",
+      "Attaches to a pipeline replaying in real time (fuse-ingest --mode realtime with the same --start-wall and "
+      "--rate); prints query RPC round trip, IMU->odometry and scan->correction latencies as 'key: value' lines "
+      "(milliseconds). Or, with --lockstep-scans, times a lockstep replay; or, with --codec, the scan codec.",
+      "Modes:\n"
+      "  fuse-bench-pipeline --config FILE [--set K=V]... [--domain N] [--vendor V] --start-wall UNIX_S [--rate R]\n"
+      "                      (--input RECORDING | --t0 T --duration S) [options]\n"
+      "  fuse-bench-pipeline --config FILE [--set K=V]... --lockstep-scans N [--idle-s S]\n"
+      "  fuse-bench-pipeline --codec --input RECORDING\n"
+      "Exit codes: 0 done, 1 a run that failed or was interrupted, 2 bad arguments or config.");
+  app->add_option("--config", o.config_file, "the system config (YAML), as the services were given it")
+      ->type_name("FILE");
+  const fuse::cli::TransportFlags transport(*app);
+  add_schedule_options(*app, o);
+  add_query_options(*app, o);
+  add_mode_options(*app, o);
+  if (const std::optional<int> code = fuse::cli::parse(*app, argc, argv)) return code;
+  o.overrides = transport.overrides();
+  if (const std::string error = check(o); !error.empty()) return fuse::cli::usage_error(*app, error);
+  return std::nullopt;
 }
 
 /// What the recording holds, in ingest's terms (arrival times).
@@ -557,13 +550,7 @@ int run_lockstep(const fuse::service::SystemConfig& config, const Options& o) {
 int main(int argc, char** argv) {
   using namespace fuse;
   Options o;
-  try {
-    o = parse(argc, argv);
-  } catch (const std::exception& e) {
-    std::cerr << "fuse-bench-pipeline: " << e.what() << "\n";
-    usage(std::cerr);
-    return 2;
-  }
+  if (const std::optional<int> code = parse(argc, argv, o)) return *code;
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   set_log_level("warn");

@@ -2,7 +2,8 @@
 // starts itself as an echo process (same or other vendor) and times ping -> pong, one sample in
 // flight. Prints median and p99 of the round trip and half the median as the one-way estimate.
 //
-//   fuse_transport_latency [domain_id]      (default 28; the echo runs as a child process)
+//   fuse_transport_latency [domain_id]      (default 28; the echo runs as a child process:
+//                                            the same binary with the hidden --echo VENDOR DOMAIN)
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -13,13 +14,14 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
+#include "fuse/cli/cli.hpp"
 #include "fuse/core/logging.hpp"
 #include "fuse/transport/msg_traits.hpp"
 
@@ -174,16 +176,55 @@ void run_pair(const char* self, const std::string& vendor, const std::string& ec
   }
 }
 
+/// The command line: the domain of the runs, or (internal) the echo side this program starts.
+struct Arguments {
+  int domain = 28;
+  std::optional<std::pair<std::string, int>> echo;  ///< --echo VENDOR DOMAIN
+};
+
+/// The --echo values (VENDOR DOMAIN) into `a`; an error message when they do not check.
+std::string take_echo(const std::vector<std::string>& echo, Arguments& a) {
+  int domain = -1;
+  if (echo.size() != 2) return "--echo: expected VENDOR DOMAIN";
+  if (echo[0] != "fastdds" && echo[0] != "cyclonedds") return "--echo: unknown vendor " + echo[0];
+  if (!CLI::detail::lexical_cast(echo[1], domain) || domain < 0 || domain > 101) {
+    return "--echo: domain '" + echo[1] + "' not in [0, 101]";
+  }
+  a.echo = std::make_pair(echo[0], domain);
+  return "";
+}
+
+/// Parses argv into `a`. std::nullopt: go on; otherwise the exit code to end with.
+std::optional<int> parse(int argc, char** argv, Arguments& a) {
+  const auto app = fuse::cli::make_app(
+      "fuse_transport_latency",
+      "Round-trip latency of 1 KiB, 100 KiB and 1 MiB samples on loopback, per vendor (fastdds, cyclonedds, "
+      "fastdds -> cyclonedds): starts itself as the echo process and times ping -> pong, one sample in flight.");
+  app->add_option("domain_id", a.domain, "DDS domain of the runs (default 28)")
+      ->type_name("N")
+      ->check(CLI::Range(0, 101));
+  std::vector<std::string> echo;
+  app->add_option("--echo", echo, "internal: be the echo process of VENDOR on DOMAIN (spawn_echo)")
+      ->expected(2)
+      ->allow_extra_args(false)
+      ->group("");  // hidden from --help
+  if (const std::optional<int> code = fuse::cli::parse(*app, argc, argv)) return code;
+  if (echo.empty()) return std::nullopt;
+  if (const std::string error = take_echo(echo, a); !error.empty()) return fuse::cli::usage_error(*app, error);
+  return std::nullopt;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   fuse::set_log_level("error");
-  if (argc >= 4 && std::strcmp(argv[1], "--echo") == 0) return run_echo(argv[2], std::atoi(argv[3]));
-  const int domain = argc >= 2 ? std::atoi(argv[1]) : 28;
+  Arguments a;
+  if (const std::optional<int> code = parse(argc, argv, a)) return *code;
+  if (a.echo) return run_echo(a.echo->first, a.echo->second);
   std::printf("transport round trips on loopback (UDP, %zu B socket buffers), one sample in flight\n",
               TransportConfig{}.socket_buffer_bytes);
-  run_pair(argv[0], "fastdds", "fastdds", domain);
-  run_pair(argv[0], "cyclonedds", "cyclonedds", domain);
-  run_pair(argv[0], "fastdds", "cyclonedds", domain);
+  run_pair(argv[0], "fastdds", "fastdds", a.domain);
+  run_pair(argv[0], "cyclonedds", "cyclonedds", a.domain);
+  run_pair(argv[0], "fastdds", "cyclonedds", a.domain);
   return 0;
 }
