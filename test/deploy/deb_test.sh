@@ -4,7 +4,7 @@
 #   1. the five packages are built; lintian reports no error and no warning (overrides carry a reason);
 #   2. no package pulls PCL or VTK (the map export writes PCD and PLY itself); a man page for
 #      every binary;
-#   3. `apt-get -s install ./fuse-slam_*.deb fuse3` resolves (Debian's fuse3 beside us);
+#   3. `apt-get -s install` of every package with fuse3 resolves (Debian's fuse3 beside us);
 #   4. maintainer scripts in a scratch root (dpkg --root, chrootless, DPKG_ROOT): the user is
 #      created, an old "fuse" 0.1 installation is migrated (edited config kept, map moved, target
 #      enabled), a reinstall keeps the config, remove keeps config and map, purge deletes both;
@@ -60,9 +60,10 @@ echo "no package pulls PCL or VTK; a man page for every binary"
 
 # ---- 3. apt resolves us beside Debian's fuse3 --------------------------------------------
 if apt-cache show fuse3 >/dev/null 2>&1; then
-  apt-get -s -q install "$(deb libfuse-slam-query2)" "$(deb fuse-slam)" "$(deb python3-fuse-slam)" fuse3 >"$scratch/apt.log" 2>&1 ||
+  apt-get -s -q install "$(deb libfuse-slam-query2)" "$(deb fuse-slam)" "$(deb python3-fuse-slam)" \
+    "$(deb fuse-slam-tools)" "$(deb libfuse-slam-query-dev)" fuse3 >"$scratch/apt.log" 2>&1 ||
     { cat "$scratch/apt.log"; fail "apt-get -s install fuse-slam fuse3 does not resolve"; }
-  echo "apt-get -s install ./fuse-slam ./libfuse-slam-query2 ./python3-fuse-slam fuse3: resolves"
+  echo "apt-get -s install of all five packages beside fuse3: resolves"
 else
   echo "SKIPPED (part 3): no apt package lists with fuse3 (apt-get update)"
 fi
