@@ -79,15 +79,6 @@ struct Options {
   bool check = false;
 };
 
-/// A value that parses as a finite number (CLI11 takes "inf" and "nan" for numbers).
-const CLI::Validator kFinite(
-    [](std::string& text) {
-      double v = 0.0;
-      if (CLI::detail::lexical_cast(text, v) && std::isfinite(v)) return std::string();
-      return "'" + text + "' is not a finite number";
-    },
-    "", "FINITE");
-
 /// "A:B" as two finite numbers; std::nullopt when it is not.
 std::optional<std::pair<double, double>> pair_of(const std::string& v) {
   const auto colon = v.find(':');
@@ -134,13 +125,13 @@ void add_chaos_options(CLI::App& app, Options& o) {
   app.add_option("--seed", o.seed, "seed of the kill schedule (default 1)")->type_name("S");
   add_pair(app, "--kill-every", "MIN:MAX", o.kill_min, o.kill_max, "a kill every U(MIN, MAX) s (default 3:8)");
   app.add_option("--double-fraction", o.double_fraction, "share of the kills that take two services (default 0.3)")
-      ->type_name("F")->check(kFinite)->check(CLI::Range(0.0, 1.0));
+      ->type_name("F")->check(fuse::cli::finite_number())->check(CLI::Range(0.0, 1.0));
   app.add_option("--map-tmpfs-mb", o.tmpfs_mb, "the map directory on a tmpfs of MB (root; 0 = none, the default)")
       ->type_name("MB");
   add_pair(app, "--disk-full-at", "S:FOR", o.disk_full_at, o.disk_full_for, "fill the map disk at S s for FOR s");
   add_pair(app, "--read-only-at", "S:FOR", o.read_only_at, o.read_only_for, "map disk read-only at S s for FOR s");
   app.add_option("--query-hz", o.query_hz, "the planner client's calls per second (default 20)")
-      ->type_name("HZ")->check(kFinite);
+      ->type_name("HZ")->check(fuse::cli::finite_number());
   app.add_flag("--check", o.check, "exit 1 unless the figures meet the bounds (see the source's header)");
 }
 

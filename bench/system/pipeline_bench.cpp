@@ -166,30 +166,21 @@ struct Options {
   double idle_s = 10.0;
 };
 
-/// A value that parses as a finite number (CLI11 takes "inf" and "nan" for numbers).
-const CLI::Validator kFinite(
-    [](std::string& text) {
-      double v = 0.0;
-      if (CLI::detail::lexical_cast(text, v) && std::isfinite(v)) return std::string();
-      return "'" + text + "' is not a finite number";
-    },
-    "", "FINITE");
-
 /// The options of the real-time attach mode: the schedule and the window measured.
 void add_schedule_options(CLI::App& app, Options& o) {
   app.add_option("--input", o.input, "the recording fuse-ingest replays (t0 and the window come from it)")
       ->type_name("RECORDING");
   app.add_option("--start-wall", o.start_wall, "the --start-wall fuse-ingest was given (UNIX time)")
-      ->type_name("UNIX_S")->check(kFinite);
-  app.add_option("--rate", o.rate, "the --rate fuse-ingest was given (default 1)")->type_name("R")->check(kFinite);
+      ->type_name("UNIX_S")->check(fuse::cli::finite_number());
+  app.add_option("--rate", o.rate, "the --rate fuse-ingest was given (default 1)")->type_name("R")->check(fuse::cli::finite_number());
   app.add_option("--t0", o.t0, "the recording's first event time, instead of reading --input")
-      ->type_name("T")->check(kFinite);
+      ->type_name("T")->check(fuse::cli::finite_number());
   app.add_option("--duration", o.duration, "data seconds after t0 to measure (with --t0)")
-      ->type_name("S")->check(kFinite);
+      ->type_name("S")->check(fuse::cli::finite_number());
   app.add_option("--warmup-s", o.warmup_s, "data seconds after t0 not measured (default 2)")
-      ->type_name("S")->check(kFinite);
+      ->type_name("S")->check(fuse::cli::finite_number());
   app.add_option("--tail-s", o.tail_s, "wait after the window for the last answers (default 3)")
-      ->type_name("S")->check(kFinite);
+      ->type_name("S")->check(fuse::cli::finite_number());
   app.add_option("--csv", o.csv, "write the raw samples to PREFIX-{scans,odometry,queries}.csv")->type_name("PREFIX");
   app.add_flag_callback("--no-breakdown", [&o] { o.breakdown = false; }, "do not listen to imu and the history RPC");
   app.add_flag("--observe-scan", o.observe_scan, "also read the scans (their hop; perturbs a little)");
@@ -197,16 +188,16 @@ void add_schedule_options(CLI::App& app, Options& o) {
 
 /// The options of the query client's calls (section (a)).
 void add_query_options(CLI::App& app, Options& o) {
-  app.add_option("--query-hz", o.query_hz, "query calls per second (default 1000)")->type_name("HZ")->check(kFinite);
+  app.add_option("--query-hz", o.query_hz, "query calls per second (default 1000)")->type_name("HZ")->check(fuse::cli::finite_number());
   app.add_option("--query-lag-ms", o.query_lag_ms, "at(t) asks for 'now' on the schedule minus this (default 20)")
-      ->type_name("MS")->check(kFinite);
+      ->type_name("MS")->check(fuse::cli::finite_number());
   app.add_option("--query-deadline-ms", o.query_deadline_ms, "a call without a reply by then is an error (default 200)")
       ->type_name("MS");
   app.add_option("--query-slice-us", o.query_slice_us,
                  "scheduler slice of the client's threads; 0 = kernel default (default 100)")
       ->type_name("US");
   app.add_option("--idle-query-s", o.idle_query_s, "the idle baseline's calls after the replay (default 5)")
-      ->type_name("S")->check(kFinite);
+      ->type_name("S")->check(fuse::cli::finite_number());
   app.add_flag_callback("--no-query", [&o] { o.query = false; }, "make no query calls");
 }
 
@@ -221,7 +212,7 @@ void add_mode_options(CLI::App& app, Options& o) {
          "lockstep throughput: end after N corrections")
       ->type_name("N");
   app.add_option("--idle-s", o.idle_s, "lockstep: end after this long without a correction (default 10)")
-      ->type_name("S")->check(kFinite);
+      ->type_name("S")->check(fuse::cli::finite_number());
   app.add_flag("--codec", o.codec, "scan codec cost on --input (no transport)");
 }
 

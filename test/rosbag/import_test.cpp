@@ -16,6 +16,7 @@
 #include "importer.hpp"
 #include "message_encoder.hpp"
 #include "ros1_bag_writer.hpp"
+#include "../cli_capture.hpp"
 
 namespace fuse::import {
 namespace {
@@ -233,15 +234,12 @@ struct Parsed {
 };
 
 Parsed parse(std::vector<std::string> args) {
-  args.insert(args.begin(), "fuse-import");
-  std::vector<char*> argv;
-  for (std::string& a : args) argv.push_back(a.data());
   Parsed p;
-  ::testing::internal::CaptureStdout();
-  ::testing::internal::CaptureStderr();
-  p.code = parse_arguments(static_cast<int>(argv.size()), argv.data(), p.arguments);
-  p.out = ::testing::internal::GetCapturedStdout();
-  p.err = ::testing::internal::GetCapturedStderr();
+  const fuse::test::CapturedCli c = fuse::test::run_cli_parser(
+      "fuse-import", std::move(args), [&](int argc, char** argv) { return parse_arguments(argc, argv, p.arguments); });
+  p.code = c.code;
+  p.out = c.out;
+  p.err = c.err;
   return p;
 }
 

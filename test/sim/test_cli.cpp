@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "fuse/sim/cli.hpp"
+#include "../cli_capture.hpp"
 
 using namespace fuse::sim;
 namespace fs = std::filesystem;
@@ -56,15 +57,12 @@ struct Parsed {
 };
 
 Parsed parse(std::vector<std::string> args) {
-  args.insert(args.begin(), "fuse-sim");
-  std::vector<char*> argv;
-  for (std::string& a : args) argv.push_back(a.data());
   Parsed p;
-  ::testing::internal::CaptureStdout();
-  ::testing::internal::CaptureStderr();
-  p.code = parse_arguments(static_cast<int>(argv.size()), argv.data(), p.options);
-  p.out = ::testing::internal::GetCapturedStdout();
-  p.err = ::testing::internal::GetCapturedStderr();
+  const fuse::test::CapturedCli c = fuse::test::run_cli_parser(
+      "fuse-sim", std::move(args), [&](int argc, char** argv) { return parse_arguments(argc, argv, p.options); });
+  p.code = c.code;
+  p.out = c.out;
+  p.err = c.err;
   return p;
 }
 

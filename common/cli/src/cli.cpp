@@ -1,6 +1,8 @@
 #include "fuse/cli/cli.hpp"
 
+#include <cmath>
 #include <iostream>
+#include <string>
 
 #include "fuse/core/version.hpp"
 
@@ -66,6 +68,17 @@ std::vector<std::string> TransportFlags::overrides() const {
   std::vector<std::string> out = shorthands();
   out.insert(out.end(), sets_.begin(), sets_.end());
   return out;
+}
+
+const CLI::Validator& finite_number() {
+  static const CLI::Validator validator(
+      [](std::string& text) {
+        double v = 0.0;
+        if (CLI::detail::lexical_cast(text, v) && std::isfinite(v)) return std::string();
+        return "'" + text + "' is not a finite number";
+      },
+      "", "FINITE");
+  return validator;
 }
 
 }  // namespace fuse::cli

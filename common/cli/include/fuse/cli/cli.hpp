@@ -40,6 +40,9 @@ class TransportFlags {
   std::string vendor_;
 };
 
+/// Checks that an option's value is a finite number (CLI11 reads "inf" and "nan" as numbers).
+const CLI::Validator& finite_number();
+
 /// A usage error found after parsing (a value that does not check): printed as parse() does.
 int usage_error(const CLI::App& app, const std::string& message);
 
