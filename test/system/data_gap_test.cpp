@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iostream>
 #include <sstream>
 #include <string>
 #include <unistd.h>
@@ -58,21 +59,27 @@ double field(const std::string& row, int i) {
   return std::stod(f);
 }
 
-/// A copy of the sequence with the IMU samples and the scans of (start, start + length] removed
-/// (scans are shared through a link to the original raw/ folder).
-fs::path sequence_with_gap(const Gap& gap, const std::string& name) {
+/// A copy of the sequence `source` with the IMU samples and the scans of each gap (start, start +
+/// length] removed (scans are shared through a link to the original raw/ folder).
+fs::path sequence_with_gaps(const std::string& source, const std::vector<Gap>& gaps, const std::string& name) {
   const fs::path dir = fs::temp_directory_path() / ("fuse_data_gap_" + std::to_string(::getpid()) + "_" + name);
   fs::remove_all(dir);
   fs::create_directories(dir);
-  fs::copy_file(kSeqdir + "/calib.yaml", dir / "calib.yaml");
-  fs::create_directory_symlink(fs::absolute(kSeqdir + "/raw"), dir / "raw");
-  const double end = gap.start + gap.length;
-  copy_rows(kSeqdir + "/imu.csv", dir / "imu.csv", [&](const std::string& row) {
+  fs::copy_file(source + "/calib.yaml", dir / "calib.yaml");
+  fs::create_directory_symlink(fs::absolute(source + "/raw"), dir / "raw");
+  auto keep = [&gaps](double t0, double t1, bool sample) {
+    for (const Gap& g : gaps) {
+      const double end = g.start + g.length;
+      if (sample ? t0 > g.start && t0 <= end : t1 > g.start && t0 < end) return false;
+    }
+    return true;
+  };
+  copy_rows(source + "/imu.csv", dir / "imu.csv", [&](const std::string& row) {
     const double t = field(row, 0) * 1e-9;  // ns
-    return t <= gap.start || t > end;
+    return keep(t, t, true);
   });
-  copy_rows(kSeqdir + "/scans.csv", dir / "scans.csv",  // idx, t_start, t_end
-            [&](const std::string& row) { return field(row, 2) <= gap.start || field(row, 1) >= end; });
+  copy_rows(source + "/scans.csv", dir / "scans.csv",  // idx, t_start, t_end
+            [&](const std::string& row) { return keep(field(row, 1), field(row, 2), false); });
   return dir;
 }
 
@@ -81,16 +88,21 @@ struct GapRun {
   double ate = 0.0;
 };
 
-GapRun run_with_gap(const Gap& gap, const std::string& name, const std::vector<std::string>& overrides = {}) {
-  const fs::path dir = sequence_with_gap(gap, name);
+GapRun run_with_gaps(const std::string& source, const std::vector<Gap>& gaps, const std::string& name,
+                     const std::vector<std::string>& overrides = {}) {
+  const fs::path dir = sequence_with_gaps(source, gaps, name);
   GapRun r;
   r.summary = run_offline(load_runner_config(kConfig, overrides), dir.string(), "");
   fs::remove_all(dir);
   if (!r.summary.trajectory.empty()) {
-    r.ate = eval::evaluate(eval::read_tum(kSeqdir + "/groundtruth.tum"), r.summary.trajectory, eval::EvaluationConfig{})
+    r.ate = eval::evaluate(eval::read_tum(source + "/groundtruth.tum"), r.summary.trajectory, eval::EvaluationConfig{})
                 .ate.rmse;
   }
   return r;
+}
+
+GapRun run_with_gap(const Gap& gap, const std::string& name, const std::vector<std::string>& overrides = {}) {
+  return run_with_gaps(kSeqdir, {gap}, name, overrides);
 }
 
 std::uint64_t count_of(const std::map<std::string, std::uint64_t>& m, const std::string& key) {
@@ -151,6 +163,33 @@ TEST(DataGapControl, CoastingAtOneEndsRotationRateLosesTheTrack) {
                                 {"estimator.divergence.gap_rate_window=0", "estimator.divergence.gap_level=false",
                                  "estimator.recovery.heading_hypotheses=1"});
   EXPECT_TRUE(!r.summary.error.empty() || r.ate > 2 * kSurvivedAte) << "ATE " << r.ate;
+}
+
+// Repeated short gaps on a map that has grown for minutes: what fuse-ingest restarts every few
+// seconds leave (the chaos soak's kills). Each gap ends in a re-localisation; one that settles a
+// little off (along the corridor, or tilted after a gap in a turn) and writes the space ahead into
+// the map bends the map for good: later scans fit it (docs/chaos.md, "Map hold after a
+// re-localisation"). With estimator.recovery.map_hold_distance the map grows only near the sensor
+// until the estimate has settled. Truth is the simulator's. Measured (corridor, 180 s, these 20
+// gaps of 0.2-1.2 s): 2.0 cm without gaps; with them 8.1 cm with the hold (8 m radius), 13.9 cm
+// without it; the bound asks for a quarter less. (A 5 m radius gives 3.2 cm here but starves the
+// map in the stairs scene, docs/chaos.md.)
+TEST(RepeatedGaps, ReLocalisationsDoNotBendTheMap) {
+  const std::string source = std::string(FUSE_TEST_DATA) + "/seqdir180";
+  if (!fs::exists(source + "/scans.csv")) GTEST_SKIP() << "fixture missing: " << source;
+  const std::vector<Gap> gaps = {{1010.0, 0.2},  {1014.7, 0.5},  {1024.3, 1.2}, {1034.3, 0.5}, {1040.3, 0.3},
+                                 {1048.3, 1.0},  {1057.4, 0.8},  {1066.0, 1.2}, {1076.3, 1.0}, {1087.0, 1.0},
+                                 {1097.7, 1.0},  {1104.3, 0.2},  {1113.7, 0.5}, {1121.0, 0.5}, {1130.9, 0.8},
+                                 {1141.1, 1.0},  {1147.1, 0.3},  {1152.8, 0.2}, {1158.0, 0.3}, {1163.2, 1.0}};
+  const GapRun clean = run_with_gaps(source, {}, "repeated_clean");
+  const GapRun held = run_with_gaps(source, gaps, "repeated_held");
+  const GapRun not_held = run_with_gaps(source, gaps, "repeated_not_held", {"estimator.recovery.map_hold_distance=0"});
+  std::cout << "ATE without gaps " << clean.ate << " m; with 20 gaps " << held.ate << " m (" << held.ate / clean.ate
+            << "x), without the map hold " << not_held.ate << " m (" << not_held.ate / clean.ate << "x)\n";
+  ASSERT_TRUE(clean.summary.error.empty() && held.summary.error.empty()) << held.summary.error;
+  EXPECT_GE(count_of(held.summary.estimator_counts, "map_hold"), 15u);
+  EXPECT_LT(held.ate, 0.75 * not_held.ate);
+  EXPECT_LT(held.ate, 5.0 * clean.ate);  // tracked throughout (a lost track is off by metres)
 }
 
 }  // namespace

@@ -210,6 +210,7 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
   for (std::size_t i = 0; i < points_L_.size(); ++i) points_W_[i] = R * points_L_[i] + t;
   // The association's nearest-neighbour distances are reused when it ran on this scan's points.
   const bool have_nearest = report.updated && constraints_.nearest_dist2.size() == points_W_.size();
+  report.map_held = holds_map(report, x);
   if (report.recovery && (!report.converged || report.fit < config_.recovery.min_fit)) {
     // Not re-localised yet: a misplaced scan in the map would pull the later ones towards it.
     counters_.count("recovery_not_mapped", "re-localisation at t=" + std::to_string(scan.t_end) +
@@ -218,8 +219,19 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
                                                ": scan not added to the map");
     points_W_.clear();  // nothing accepted to offer (last_world_points)
   } else {
+    if (report.map_held) {
+      // Held: only the points within recovery.map_hold_radius of the sensor are offered. They keep
+      // the map dense where the scan is (later scans need them), and a small pose error moves
+      // them little; the far ones, where the same error grows with the range, wait.
+      const auto r2 = static_cast<float>(config_.recovery.map_hold_radius * config_.recovery.map_hold_radius);
+      std::size_t kept = 0;
+      for (std::size_t i = 0; i < points_W_.size(); ++i) {
+        if (points_L_[i].squaredNorm() < r2) points_W_[kept++] = points_W_[i];
+      }
+      points_W_.resize(kept);
+    }
     const MapUpdateStats map_stats =
-        map_policy_->apply(points_W_, *map_, have_nearest ? &constraints_.nearest_dist2 : nullptr);
+        map_policy_->apply(points_W_, *map_, have_nearest && !report.map_held ? &constraints_.nearest_dist2 : nullptr);
     report.map_inserted = map_stats.inserted;
     if (report.updated && map_stats.inserted > 0 && !points_W_.empty()) {
       // Map-frame drift: the filter's covariance P is that of the pose relative to the map, whose
@@ -240,6 +252,26 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
   report.ms_total = ms_since(t0);
   check_divergence(report, history);
   return report;
+}
+
+bool LidarUpdater::holds_map(const ScanReport& report, const NavState& x) {
+  // recovery.map_hold_distance: from a re-localised scan until the vehicle has moved that far from
+  // it, the map is extended only near the sensor; the estimate settles against the map as it was.
+  const double hold = config_.recovery.map_hold_distance;
+  if (hold <= 0.0) return false;
+  if (report.recovery) {
+    if (!hold_from_) {
+      counters_.count("map_hold", fmt::format("re-localised at t={:.6f}: for the next {} m the map is extended only within {} m "
+                                              "of the sensor (estimator.recovery.map_hold_distance, map_hold_radius)",
+                                              report.t, hold, config_.recovery.map_hold_radius));
+    }
+    hold_from_ = x.p;
+    return true;
+  }
+  if (!hold_from_) return false;
+  if ((x.p - *hold_from_).norm() < hold) return true;
+  hold_from_.reset();
+  return false;
 }
 
 // Heading search: the recovery update (no screening, recovery caps) from K priors

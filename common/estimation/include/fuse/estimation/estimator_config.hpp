@@ -116,6 +116,17 @@ struct RecoveryConfig {
   /// A re-localised scan whose fit is below this is not offered to the map (nor is one that did
   /// not converge): a misplaced scan in the map would pull every later one towards it.
   double min_fit = 0.5;
+  /// m: a re-localised scan, and every scan until the vehicle has moved this far from it, offers
+  /// the map only its points within map_hold_radius of the sensor. A re-localisation settles over
+  /// a few scans, and one that settled a little off (along a corridor, tilted after a gap across a
+  /// turn) would otherwise be written into the space ahead and never corrected: later scans fit
+  /// it. By distance, not time: a fast vehicle must not run off its map. 0: off.
+  /// Figures: docs/chaos.md, "Map hold after a re-localisation".
+  double map_hold_distance = 2.5;
+  /// m: during the hold, points nearer the sensor than this are still added: later scans need the
+  /// map dense where they are (held back entirely, a young map starves and the estimate slides),
+  /// and a small rotation error moves near points little.
+  double map_hold_radius = 8.0;
   void load(ConfigNode& node);
 };
 

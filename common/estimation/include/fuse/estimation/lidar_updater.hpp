@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -68,6 +69,8 @@ class LidarUpdater {
   /// Re-localises the scan at t from several headings and keeps the best fit (recovery.heading_*);
   /// corrects the history at t and fills the report's update fields.
   UpdateResult relocalise(StateHistory& history, double t, ScanReport& report);
+  /// recovery.map_hold_distance: whether this scan (at posterior x) is kept out of the map.
+  bool holds_map(const ScanReport& report, const NavState& x);
 
   EstimatorConfig config_;
   std::unique_ptr<SpatialIndex> map_;
@@ -81,6 +84,8 @@ class LidarUpdater {
   float voxel_size_;  ///< downsampling voxel in use (adapts to max_points)
   Deskewer deskewer_;
   int scans_without_constraints_ = 0;
+  /// World position of the last re-localised scan while its map hold lasts (recovery.map_hold_distance).
+  std::optional<Eigen::Vector3d> hold_from_;
   Counters counters_;
   Eigen::Isometry3d T_WL_ = Eigen::Isometry3d::Identity();
   // Per-scan buffers reused to avoid allocation on the hot path.
