@@ -21,7 +21,8 @@
 //    keeps the highest acknowledged sequence of every session; RSS of each service is sampled.
 // 4. Report (one Markdown table row per figure, printed and appended to --report): poses
 //    against scans replayed, the longest time without a pose in the client's answers, kill ->
-//    next pose answer (median / max), ATE against the run without kills, acknowledged
+//    next pose answer (median / max), restarted services ready (their first Health "running" or
+//    "degraded" from the new process) -> next pose answer, ATE against the run without kills, acknowledged
 //    observations missing from the map read back from disk, the persisted map's size against
 //    the run without kills, answers with a pose, RSS of each service at start and end, and
 //    fuse-launch's exit code and named losses.
@@ -257,6 +258,39 @@ class MapDisk {
   std::string note_;
 };
 
+/// A Health sample as received: which process instance of a service, and whether it was up.
+struct HealthSeen {
+  Clock::time_point at;
+  std::string service;
+  std::uint64_t instance = 0;
+  bool up = false;  ///< state running or degraded: started and serving
+};
+
+/// When the services a kill took down were all serving again: for each, the first Health sample
+/// after the kill from another instance than the one before it, in state running or degraded.
+/// Empty when one of them never reported so (killed again first, or the run ended).
+std::optional<Clock::time_point> ready_after(const std::vector<HealthSeen>& health, Clock::time_point kill,
+                                             const std::string& what) {
+  Clock::time_point ready = kill;
+  std::stringstream services(what);
+  for (std::string s; std::getline(services, s, '+');) {
+    std::uint64_t before = 0;
+    std::optional<Clock::time_point> up;
+    for (const HealthSeen& h : health) {
+      if (h.service != s) continue;
+      if (h.at <= kill) {
+        before = h.instance;
+      } else if (h.instance != before && h.up) {
+        up = h.at;
+        break;
+      }
+    }
+    if (!up) return std::nullopt;
+    ready = std::max(ready, *up);
+  }
+  return ready;
+}
+
 struct Answer {
   Clock::time_point at;
   bool pose = false;  ///< ok, and the estimator tracks (interpolated / propagated)
@@ -322,6 +356,15 @@ int main(int argc, char** argv) {
                                                                acked[a.session()] = std::max(acked[a.session()], a.acked_sequence());
                                                              }
                                                            });
+
+  std::vector<HealthSeen> health;
+  fuse::transport::Subscriber<fuse_msgs::Health> health_sub(*participant, fuse::transport::topics::kHealth,
+                                                            [&](const fuse_msgs::Health& h) {
+                                                              const HealthSeen seen{Clock::now(), h.service().to_string(), h.instance(),
+                                                                                    h.state().to_string() == "running" || h.state().to_string() == "degraded"};
+                                                              std::lock_guard<std::mutex> lock(mutex);
+                                                              health.push_back(seen);
+                                                            });
 
   std::vector<Answer> answers;
   std::atomic<bool> done{false};
@@ -433,6 +476,24 @@ int main(int argc, char** argv) {
       for (; k < kills.size() && kills[k].at <= a.at; ++k) recovery.push_back(seconds(a.at - kills[k].at));
     }
   }
+  // Restarted services ready -> next pose answer (the issue's "poses again within 3 s of the
+  // restarted services reporting ready"); ready is known to within one Health period.
+  std::vector<double> from_ready;
+  std::size_t never_ready = 0, over_3s = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    for (const Kill& k : kills) {
+      const std::optional<Clock::time_point> ready = ready_after(health, k.at, k.what);
+      if (!ready) {
+        ++never_ready;
+        continue;
+      }
+      const auto next = std::find_if(answers.begin(), answers.end(), [&](const Answer& a) { return a.pose && a.at >= *ready; });
+      if (next == answers.end()) continue;
+      from_ready.push_back(seconds(next->at - *ready));
+      over_3s += from_ready.back() > 3.0 ? 1 : 0;
+    }
+  }
   std::uint64_t missing = 0, acked_total = 0;
   std::size_t persisted_points = 0;
   std::string map_error;
@@ -474,6 +535,9 @@ int main(int argc, char** argv) {
   r << "| longest time without a pose (client) | " << longest_without_pose << " s |\n";
   r << "| kill -> next pose answer, median / max | " << percentile(recovery, 0.5) << " / " << percentile(recovery, 1.0)
     << " s |\n";
+  r << "| restarted services ready -> next pose answer, median / max | " << percentile(from_ready, 0.5) << " / "
+    << percentile(from_ready, 1.0) << " s (" << from_ready.size() << " kills; over 3 s: " << over_3s
+    << "; killed again or the run ended before ready: " << never_ready << ") |\n";
   r << "| ATE / run without kills | " << run_ate << " m / " << ref_ate << " m ("
     << (ref_ate > 0 ? run_ate / ref_ate : 0.0) << "x) |\n";
   r << "| acknowledged observations missing from the map on disk | " << missing << " of " << acked_total
