@@ -69,7 +69,8 @@ class LidarUpdater {
   /// Re-localises the scan at t from several headings and keeps the best fit (recovery.heading_*);
   /// corrects the history at t and fills the report's update fields.
   UpdateResult relocalise(StateHistory& history, double t, ScanReport& report);
-  /// recovery.map_hold_distance: whether this scan (at posterior x) is kept out of the map.
+  /// recovery.map_hold_distance: whether this scan (at posterior x) offers the map only its points
+  /// within recovery.map_hold_radius.
   bool holds_map(const ScanReport& report, const NavState& x);
 
   EstimatorConfig config_;

@@ -27,7 +27,8 @@ struct ScanReport {
   double prior_rotation_std = 0.0;  ///< rad: largest σ of the prior rotation
   double min_eig_translation = 0.0, min_eig_rotation = 0.0, min_gamma = 1.0, min_eig_ratio = 1.0;
   std::size_t map_points = 0, map_inserted = 0;
-  /// Not offered to the map: re-localised, or within recovery.map_hold_distance after it.
+  /// Map hold: re-localised, or within recovery.map_hold_distance after it; only the points
+  /// within recovery.map_hold_radius of the sensor were offered to the map.
   bool map_held = false;
   /// This scan's contribution to the uncertainty of the map frame itself, in the world frame and
   /// block-diagonal (position; rotation as a world-frame perturbation): f·P with f the fraction of
