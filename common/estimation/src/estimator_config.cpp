@@ -48,7 +48,7 @@ void RecoveryConfig::load(ConfigNode& node) {
   node.get("max_iterations", max_iterations).get("reassociate_iterations", reassociate_iterations);
   node.get("heading_hypotheses", heading_hypotheses).get("inlier_residual", inlier_residual);
   node.get("heading_margin", heading_margin).get("min_fit", min_fit).get("map_hold_distance", map_hold_distance);
-  node.get("map_hold_radius", map_hold_radius);
+  node.get("map_hold_radius", map_hold_radius).get("turn_through_gap", turn_through_gap);
   node.check(std::isfinite(position_std) && position_std > 0.0, "position_std", "must be positive and finite");
   node.check(std::isfinite(rotation_std) && rotation_std > 0.0, "rotation_std", "must be positive and finite");
   node.check(max_iterations >= 1 && max_iterations <= 50, "max_iterations", "must be in [1, 50]");

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "fuse/core/logging.hpp"
 
@@ -274,15 +275,52 @@ bool LidarUpdater::holds_map(const ScanReport& report, const NavState& x) {
   return false;
 }
 
+std::optional<LidarUpdater::CoastedGap> LidarUpdater::coasted_gap(const StateHistory& history, double t) {
+  // The latest run of coasting entries after the last correction: the gap the prior crosses.
+  const auto entries = history.entries_between(history.last_correction_time(), t);
+  std::optional<CoastedGap> gap;
+  for (std::size_t i = entries.size(); i-- > 0;) {
+    if (entries[i]->coasting) {
+      // The step from a coasting entry ends at the next entry (or, still coasting, at this one).
+      if (!gap) gap = CoastedGap{entries[i]->x.p, i + 1 < entries.size() ? entries[i + 1]->x.p : entries[i]->x.p};
+      gap->p_start = entries[i]->x.p;
+    } else if (gap) {
+      break;
+    }
+  }
+  return gap;
+}
+
+NavState LidarUpdater::turned(const NavState& prior, const std::optional<CoastedGap>& gap, double psi, const Eigen::Vector3d& up) {
+  // The prior coasted a gap as if the vehicle kept its rotation rate; hypothesis ψ adds a turn by ψ
+  // about the vertical, spread evenly over the gap. A constant-rate turn moves along an arc whose
+  // chord is the coasted displacement c turned by ψ/2 and shortened by sinc(ψ/2):
+  //   p_end' = p_start + Exp(ψ/2·u)·c·sin(ψ/2)/(ψ/2),  p' = p_end' + Exp(ψ u)(p̂ − p_end),
+  //   v' = Exp(ψ u) v̂,  R' = Exp(ψ u) R̂.
+  // Without a coasted gap (a restart's prior) the turn is about the prior's position.
+  NavState x = prior;
+  const Eigen::Matrix3d turn = so3::Exp(psi * up);
+  x.R = so3::Normalize(turn * prior.R);
+  x.v = turn * prior.v;
+  if (gap && psi != 0.0) {
+    const double half = 0.5 * psi;
+    const Eigen::Vector3d end = gap->p_start + so3::Exp(half * up) * (gap->p_end - gap->p_start) * (std::sin(half) / half);
+    x.p = end + turn * (prior.p - gap->p_end);
+  }
+  return x;
+}
+
 // Heading search: the recovery update (no screening, recovery caps) from K priors
-//   x_k = x̂ with R_WI,k = Exp(ψ_k u) R̂_WI,  ψ_k = 2πk/K,  u = −ĝ/|ĝ| (up),
+//   x_k = turned(x̂, ψ_k): R_WI,k = Exp(ψ_k u) R̂_WI,  ψ_k = 2πk/K,  u = −ĝ/|ĝ| (up),
+// its velocity turned alike and, after a coasted gap, its position moved to the end of the arc
+// that turn would have followed through the gap (turned, above),
 // each scored by the negative log-posterior of its result x_k⁺ under a truncated-Gaussian point
 // model (σ = measurement.point_sigma, τ = recovery.inlier_residual) and the prior's pose block:
 //   E_k = Σ_{j=1..N} min(r_j², τ²)/σ² + ‖x_k⁺ ⊟ x̂‖²_{P_pose}
 // over the N scan points (a point without a constraint costs τ²/σ²). The prior's own result (k = 0)
 // stands unless a converged x_k⁺ has E_k < E_0 − m·N·τ²/σ² (m = recovery.heading_margin), so that a
 // symmetric place, which fits its mirror image almost as well, keeps the prior's heading.
-// Rotating the whole history about the vertical leaves the deskewed points unchanged, so the
+// Turning the whole history about the vertical leaves the deskewed points unchanged, so the
 // hypotheses share them. Only a prior whose heading σ exceeds recovery.rotation_std searches.
 UpdateResult LidarUpdater::relocalise(StateHistory& history, double t, ScanReport& report) {
   const StateQuery prior = history.query(t);
@@ -308,10 +346,11 @@ UpdateResult LidarUpdater::relocalise(StateHistory& history, double t, ScanRepor
   double best_cost = 0.0, prior_cost = 0.0;
   double heading_change = 0.0;  // rad: the kept result's start heading off the prior's
   report.ms_association = 0.0;
+  const std::optional<CoastedGap> gap =
+      config_.recovery.turn_through_gap ? coasted_gap(history, t) : std::optional<CoastedGap>{};
   for (int k = 0; k < K; ++k) {
     const double psi = 2.0 * M_PI * k / K;
-    NavState x = prior.x;
-    x.R = so3::Normalize(so3::Exp(psi * up) * prior.x.R);
+    NavState x = turned(prior.x, gap, psi > M_PI ? psi - 2.0 * M_PI : psi, up);
     StateCovariance P = prior.P;
     PointToPlaneModel model(recovery_measurement_, points_L_, *map_, recovery_associator_, constraints_);
     const UpdateResult result = recovery_backend_->update(x, P, model);

@@ -106,6 +106,10 @@ struct RecoveryConfig {
   /// the prior's (1: the prior's only), and the most probable result is kept
   /// (LidarUpdater::relocalise: truncated residual cost plus the prior's pose term).
   int heading_hypotheses = 12;
+  /// After a coasted gap, a heading hypothesis is a turn taken during the gap: its position is
+  /// moved to the end of the arc that turn would have followed, and its velocity turned alike
+  /// (LidarUpdater::turned). false: every hypothesis turns about the coasted position.
+  bool turn_through_gap = true;
   /// m: τ, a point's residual cost is min(r², τ²)/σ² (farther is an outlier, as is a point
   /// without a plane); the fit of a result is 1 − the mean of min(r², τ²)/τ².
   double inlier_residual = 0.1;

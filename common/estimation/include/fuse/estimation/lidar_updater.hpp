@@ -56,6 +56,16 @@ class LidarUpdater {
   Counters& counters() { return counters_; }
   const Counters& counters() const { return counters_; }
 
+  /// Positions bounding a coasted data gap: where the coasting started and where it ended.
+  struct CoastedGap {
+    Eigen::Vector3d p_start, p_end;
+  };
+  /// The latest coasted gap in `history` between its last correction and t, if any.
+  static std::optional<CoastedGap> coasted_gap(const StateHistory& history, double t);
+  /// A re-localisation's heading hypothesis ψ (rad, about `up`): the prior turned by ψ, as a
+  /// constant-rate turn through `gap` when there is one (recovery.turn_through_gap).
+  static NavState turned(const NavState& prior, const std::optional<CoastedGap>& gap, double psi, const Eigen::Vector3d& up);
+
  private:
   void downsample();
   void order_spatially();
