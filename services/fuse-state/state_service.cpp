@@ -346,6 +346,10 @@ void StateService::on_correction(const fuse_msgs::Correction& msg) {
         count_map_drift(msg);
         if (checkpoint_writer_) checkpoint_writer_->offer(Checkpoint{post, map_drift_});
         if (unconfirmed_ && msg.tracking() == fuse_msgs::TRACKING_OK) unconfirmed_ = false;
+      } else if (msg.result() == fuse_msgs::SCAN_PRIOR_ONLY) {
+        counters_.count("corrections_prior_only", fmt::format("the scan ending at t={:.6f} gave fuse-update no update: "
+                                                              "propagating without a correction",
+                                                              post.t));
       }
     }
     update_tracking_ = msg.tracking();

@@ -48,7 +48,7 @@ void RecoveryConfig::load(ConfigNode& node) {
   node.get("max_iterations", max_iterations).get("reassociate_iterations", reassociate_iterations);
   node.get("heading_hypotheses", heading_hypotheses).get("inlier_residual", inlier_residual);
   node.get("heading_margin", heading_margin).get("min_fit", min_fit).get("map_hold_distance", map_hold_distance);
-  node.get("map_hold_radius", map_hold_radius).get("turn_through_gap", turn_through_gap);
+  node.get("map_hold_radius", map_hold_radius).get("turn_through_gap", turn_through_gap).get("commit_fit", commit_fit);
   node.check(std::isfinite(position_std) && position_std > 0.0, "position_std", "must be positive and finite");
   node.check(std::isfinite(rotation_std) && rotation_std > 0.0, "rotation_std", "must be positive and finite");
   node.check(max_iterations >= 1 && max_iterations <= 50, "max_iterations", "must be in [1, 50]");
@@ -59,6 +59,7 @@ void RecoveryConfig::load(ConfigNode& node) {
   node.check(std::isfinite(heading_margin) && heading_margin >= 0.0 && heading_margin < 1.0, "heading_margin",
              "must be in [0, 1)");
   node.check(std::isfinite(min_fit) && min_fit >= 0.0 && min_fit <= 1.0, "min_fit", "must be in [0, 1]");
+  node.check(std::isfinite(commit_fit) && commit_fit >= 0.0 && commit_fit <= 1.0, "commit_fit", "must be in [0, 1]");
   node.check(std::isfinite(map_hold_distance) && map_hold_distance >= 0.0 && map_hold_distance <= 100.0,
              "map_hold_distance", "must be in [0, 100] m");
   node.check(std::isfinite(map_hold_radius) && map_hold_radius >= 0.0, "map_hold_radius", "must be finite and >= 0 m");

@@ -212,10 +212,11 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
   // The association's nearest-neighbour distances are reused when it ran on this scan's points.
   const bool have_nearest = report.updated && constraints_.nearest_dist2.size() == points_W_.size();
   report.map_held = holds_map(report, x);
-  if (report.recovery && (!report.converged || report.fit < config_.recovery.min_fit)) {
+  if (report.recovery && (!report.updated || !report.converged || report.fit < config_.recovery.min_fit)) {
     // Not re-localised yet: a misplaced scan in the map would pull the later ones towards it.
     counters_.count("recovery_not_mapped", "re-localisation at t=" + std::to_string(scan.t_end) +
-                                               (report.converged ? " fits poorly (fit " + std::to_string(report.fit) + ")"
+                                               (!report.updated    ? std::string(" was not taken (fit ") + std::to_string(report.fit) + ")"
+                                                : report.converged ? " fits poorly (fit " + std::to_string(report.fit) + ")"
                                                                  : " did not converge") +
                                                ": scan not added to the map");
     points_W_.clear();  // nothing accepted to offer (last_world_points)
@@ -260,7 +261,7 @@ bool LidarUpdater::holds_map(const ScanReport& report, const NavState& x) {
   // it, the map is extended only near the sensor; the estimate settles against the map as it was.
   const double hold = config_.recovery.map_hold_distance;
   if (hold <= 0.0) return false;
-  if (report.recovery) {
+  if (report.recovery && report.updated) {
     if (!hold_from_) {
       counters_.count("map_hold", fmt::format("re-localised at t={:.6f}: for the next {} m the map is extended only within {} m "
                                               "of the sensor (estimator.recovery.map_hold_distance, map_hold_radius)",
@@ -371,6 +372,13 @@ UpdateResult LidarUpdater::relocalise(StateHistory& history, double t, ScanRepor
     std::swap(best_constraints_, constraints_);
   }
   std::swap(best_constraints_, constraints_);  // the kept hypothesis' constraints (map policy, report)
+  if (best.updated && report.fit < config_.recovery.commit_fit) {
+    counters_.count("recovery_not_committed", fmt::format("re-localisation at t={:.6f} fits too poorly to be taken (fit {:.3f} < "
+                                                          "recovery.commit_fit {:.2f}): the prior stays, the next scan searches again",
+                                                          t, report.fit, config_.recovery.commit_fit));
+    best.updated = false;
+    return best;
+  }
   if (heading_change != 0.0) {
     counters_.count("recovery_heading_changed", "re-localisation at t=" + std::to_string(t) + " started from a heading " +
                                                     std::to_string(heading_change * 180.0 / M_PI) +

@@ -120,6 +120,11 @@ struct RecoveryConfig {
   /// A re-localised scan whose fit is below this is not offered to the map (nor is one that did
   /// not converge): a misplaced scan in the map would pull every later one towards it.
   double min_fit = 0.5;
+  /// A re-localisation whose best result fits worse than this is not taken at all (the history
+  /// keeps the uncertain prior and the next scan searches again): a fit of a few percent is no
+  /// location, and taking it moves a usable prior far off. Right headings after a gap across a
+  /// turn have fitted as poorly as 0.39 and were worth taking (docs/chaos.md).
+  double commit_fit = 0.2;
   /// m: a re-localised scan, and every scan until the vehicle has moved this far from it, offers
   /// the map only its points within map_hold_radius of the sensor. A re-localisation settles over
   /// a few scans, and one that settled a little off (along a corridor, tilted after a gap across a
