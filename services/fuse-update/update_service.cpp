@@ -96,7 +96,7 @@ void UpdateService::on_chunk(const fuse_msgs::MapChunk& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   // Once the replica follows an epoch, its chunks add nothing (the replica is written through);
   // chunks of a newer epoch are kept for the rebuild.
-  if (state_ != "starting" && msg.epoch() <= replica_epoch_) return;
+  if (state_ != "starting" && replica_complete_ && msg.epoch() <= replica_epoch_) return;
   auto it = chunks_.find(msg.key());
   if (it == chunks_.end() || msg.epoch() > it->second.epoch() ||
       (msg.epoch() == it->second.epoch() && msg.revision() >= it->second.revision())) {
@@ -111,15 +111,17 @@ void UpdateService::on_status(const fuse_msgs::MapStatus& msg) {
   if (const auto acked = UnackedObservations::acked_in(msg, session_)) unacked_.acknowledge(*acked);
 }
 
+bool UpdateService::chunks_complete() const {
+  if (!have_status_) return false;
+  std::size_t n = 0;
+  for (const auto& [key, c] : chunks_) n += (c.epoch() == status_.epoch() && !c.points().empty()) ? 1 : 0;
+  return n >= status_.chunks();
+}
+
 void UpdateService::sync_map(double timeout_s) {
   // Wait for the map server's status, then for every chunk of its epoch (transient-local).
   const auto end = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout_s));
-  auto complete = [this] {
-    if (!have_status_) return false;
-    std::size_t n = 0;
-    for (const auto& [key, c] : chunks_) n += (c.epoch() == status_.epoch() && !c.points().empty()) ? 1 : 0;
-    return n >= status_.chunks();
-  };
+  auto complete = [this] { return chunks_complete(); };
   for (;;) {
     {
       std::lock_guard<std::mutex> lock(mutex_);
@@ -130,11 +132,17 @@ void UpdateService::sync_map(double timeout_s) {
   }
   std::lock_guard<std::mutex> lock(mutex_);
   if (!have_status_) {
-    counters_.count("map_server_unavailable", "no map server status: the replica starts empty");
+    counters_.count("map_server_unavailable", "no map server status: the replica starts empty, and is rebuilt once the "
+                                              "map server's map has arrived");
+    replica_complete_ = false;
     state_ = "running";
     return;
   }
-  if (!complete()) counters_.count("map_sync_incomplete", "not every chunk of the map arrived before the sync timeout");
+  replica_complete_ = complete();
+  if (!replica_complete_) {
+    counters_.count("map_sync_incomplete", "not every chunk of the map arrived before the sync timeout: the replica is "
+                                           "rebuilt once they have");
+  }
   updater_.reset_map();
   std::vector<Eigen::Vector3f> points;
   std::size_t n = 0;
@@ -145,7 +153,7 @@ void UpdateService::sync_map(double timeout_s) {
     updater_.map().insert(points);
     n += points.size();
   }
-  chunks_.clear();
+  if (replica_complete_) chunks_.clear();  // else kept: the rest are still to come
   replica_epoch_ = status_.epoch();
   replica_mode_ = status_.mode();
   if (replica_mode_ == "mapping" || replica_mode_ == "localization") updater_.set_map_mode(replica_mode_);
@@ -173,6 +181,7 @@ void UpdateService::run() {
         counters_.add("scans_compacted", backlog_.compact_waiting(config_.update.compact_after));
       }
       if (have_status_ && status_.epoch() != replica_epoch_) resync = true;
+      if (!replica_complete_ && chunks_complete()) resync = true;  // the rest of the map has arrived
       if (have_status_ && status_.mode() != replica_mode_ && !resync) {
         replica_mode_ = status_.mode();
         if (replica_mode_ == "mapping" || replica_mode_ == "localization") {
@@ -186,7 +195,8 @@ void UpdateService::run() {
       }
     }
     if (resync) {
-      logger(kName)->info("the map server replaced its map: rebuilding the replica");
+      logger(kName)->info(replica_complete_ ? "the map server replaced its map: rebuilding the replica"
+                                            : "the map server's map has arrived: rebuilding the replica from it");
       sync_map(config_.update.map_sync_timeout_s);
       continue;
     }

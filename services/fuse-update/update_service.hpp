@@ -48,6 +48,8 @@ class UpdateService {
   void on_chunk(const fuse_msgs::MapChunk& msg);
   void on_status(const fuse_msgs::MapStatus& msg);
   void sync_map(double timeout_s);
+  /// Every chunk of the server's current epoch has arrived (mutex_ held).
+  bool chunks_complete() const;
   /// kHold: fuse-state cannot answer now; the scan goes back to the backlog's front.
   enum class Outcome { kDone, kHold };
   Outcome process(LidarScan& scan);
@@ -80,6 +82,11 @@ class UpdateService {
   fuse_msgs::MapStatus status_;
   std::uint64_t replica_epoch_ = 0;
   std::string replica_mode_;
+  /// The replica holds every chunk of the map server's epoch. False when it was built without the
+  /// server (down at start: it started empty) or before every chunk arrived: it is rebuilt as soon
+  /// as the server's chunks are all here, or a replica seeded from this instance's own scans
+  /// would stand in for the map for good (an odometry that drifts, and bends what it offers).
+  bool replica_complete_ = false;
   UnackedObservations unacked_;
   Counters counters_;
   std::map<std::string, std::uint64_t> updater_counts_;  ///< copied from the worker after each scan

@@ -394,6 +394,32 @@ TEST_F(MultiProcess, UpdateKilledAndRestartedResyncsItsReplicaAndGoesOn) {
   EXPECT_GT(traj.size() + 30, single_->trajectory.size());
 }
 
+// fuse-map and fuse-update killed together, and fuse-update back first: it gives up waiting for
+// the map server (update.map_sync_timeout_s) and starts from an empty replica, which its own
+// scans seed. When the map server is back, the replica is rebuilt from the server's map; it used
+// to stay the one seeded from a single scan for good (an odometry that drifts, and offers its
+// drift to the map: chaos long seed 1 at t = 1303.5).
+TEST_F(MultiProcess, UpdateBackBeforeTheMapServerRebuildsItsReplicaFromIt) {
+  Pipeline p("update-before-map", 79);
+  const auto traj = lockstep_run(p, kill_at(), [&] {
+    p.kill("fuse-map");
+    p.kill("fuse-update");
+    p.start("fuse-update");
+    const auto deadline = std::chrono::steady_clock::now() + 60s;
+    while (p.log("fuse-update", 2).find("the replica starts empty") == std::string::npos &&
+           std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(50ms);
+    }
+    p.start("fuse-map");
+  });
+  const std::string log = p.log("fuse-update", 2);
+  ASSERT_NE(log.find("the replica starts empty"), std::string::npos) << log;
+  EXPECT_NE(log.find("the map server's map has arrived: rebuilding the replica from it"), std::string::npos) << log;
+  EXPECT_NE(log.find("built from the map server"), std::string::npos) << log;
+  EXPECT_LT(ate(kData, traj), single_ate_ + kRestartMargin);
+  EXPECT_GT(traj.size() + 30, single_->trajectory.size());
+}
+
 TEST_F(MultiProcess, StateKilledAndRestartedRecoversFromTheLastCorrection) {
   Pipeline p("kill-state", 63);
   const auto traj = lockstep_run(p, kill_at(), [&] {
