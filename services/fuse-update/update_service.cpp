@@ -369,6 +369,9 @@ UpdateService::Outcome UpdateService::process(LidarScan& scan) {
   Posterior post{scan.t_end, scan.sequence, q.x, q.P};
   if (report.updated) {
     last_posterior_ = post;
+  } else if (report.map_points > 0 && report.map_inserted == report.map_points) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    counters_.add("scans_seeding_map");  // the replica was empty: the scan is the map's first
   } else {
     // The prior goes back unchanged (SCAN_PRIOR_ONLY): fuse-state keeps propagating without a
     // correction. Said, with why, so that a stretch of them is not silent.
