@@ -375,12 +375,11 @@ UpdateService::Outcome UpdateService::process(LidarScan& scan) {
   } else {
     // The prior goes back unchanged (SCAN_PRIOR_ONLY): fuse-state keeps propagating without a
     // correction. Said, with why, so that a stretch of them is not silent.
+    const char* why = report.recovery ? "re-localisation not taken" : report.constraints == 0 ? "no constraint" : "no step";
     std::lock_guard<std::mutex> lock(mutex_);
-    counters_.count("scan_not_updated",
-                    fmt::format("scan ending at t={:.6f} gave no update ({}; {} constraints, map {} points): the prior "
-                                "is sent back as it was",
-                                scan.t_end, report.recovery ? "re-localisation not taken" : report.constraints == 0 ? "no constraint" : "no step",
-                                report.constraints, report.map_points));
+    counters_.count("scan_not_updated", fmt::format("scan ending at t={:.6f} gave no update ({}; {} constraints, map {} "
+                                                    "points): the prior is sent back as it was",
+                                                    scan.t_end, why, report.constraints, report.map_points));
   }
   fuse_msgs::Correction c = to_msg(post);
   c.result(report.updated ? fuse_msgs::SCAN_UPDATED : fuse_msgs::SCAN_PRIOR_ONLY);

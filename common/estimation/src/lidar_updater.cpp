@@ -214,11 +214,9 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
   report.map_held = holds_map(report, x);
   if (report.recovery && (!report.updated || !report.converged || report.fit < config_.recovery.min_fit)) {
     // Not re-localised yet: a misplaced scan in the map would pull the later ones towards it.
-    counters_.count("recovery_not_mapped", "re-localisation at t=" + std::to_string(scan.t_end) +
-                                               (!report.updated    ? std::string(" was not taken (fit ") + std::to_string(report.fit) + ")"
-                                                : report.converged ? " fits poorly (fit " + std::to_string(report.fit) + ")"
-                                                                 : " did not converge") +
-                                               ": scan not added to the map");
+    const char* why = !report.updated ? "was not taken" : report.converged ? "fits poorly" : "did not converge";
+    counters_.count("recovery_not_mapped", fmt::format("re-localisation at t={:.6f} {} (fit {:.3f}): scan not added to the map",
+                                                       scan.t_end, why, report.fit));
     points_W_.clear();  // nothing accepted to offer (last_world_points)
   } else {
     if (report.map_held) {
