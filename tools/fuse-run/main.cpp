@@ -88,6 +88,13 @@ int main(int argc, char** argv) {
     std::cout << "error: " << s.error << "\n";
     return s.diverged ? kExitDiverged : kExitInput;
   }
+  if (const auto a = s.estimator_counts.find("recovery_ambiguous"); a != s.estimator_counts.end() && a->second > 0) {
+    // Not a divergence by itself (docs/chaos.md, "Ambiguous re-localisations"), but never silent.
+    fuse::logger("run")->warn("{} ambiguous re-localisation(s): the heading was turned although a result at another "
+                              "heading fitted nearly as well; the track may be mirrored (the log names each)",
+                              a->second);
+    std::cout << "warning: " << a->second << " ambiguous re-localisation(s), the track may be mirrored\n";
+  }
   if (s.diverged) {
     fuse::logger("run")->error("the run diverged: {}", s.divergence);
     std::cout << "diverged: " << s.divergence << "\n";

@@ -47,6 +47,15 @@ LidarUpdater::LidarUpdater(const EstimatorConfig& config)
 
 namespace {
 /// Largest σ of a 3×3 block of P: the square root of its largest eigenvalue.
+/// Signed angle (rad, about `up`) from R_a's heading to R_b's: the body axis farthest from `up`
+/// (x unless the body is pitched past 45°), projected on the horizontal plane, in each.
+double heading_between(const Eigen::Matrix3d& R_a, const Eigen::Matrix3d& R_b, const Eigen::Vector3d& up) {
+  const int axis = std::abs(up.dot(R_a.col(0))) < std::abs(up.dot(R_a.col(1))) ? 0 : 1;
+  const Eigen::Vector3d a = R_a.col(axis) - up.dot(R_a.col(axis)) * up;
+  const Eigen::Vector3d b = R_b.col(axis) - up.dot(R_b.col(axis)) * up;
+  return std::atan2(up.dot(a.cross(b)), a.dot(b));
+}
+
 double largest_std(const StateCovariance& P, int idx) {
   const Eigen::Matrix3d block = P.block<3, 3>(idx, idx);
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(block, Eigen::EigenvaluesOnly);
@@ -347,6 +356,11 @@ UpdateResult LidarUpdater::relocalise(StateHistory& history, double t, ScanRepor
   report.ms_association = 0.0;
   const std::optional<CoastedGap> gap =
       config_.recovery.turn_through_gap ? coasted_gap(history, t) : std::optional<CoastedGap>{};
+  struct Converged {
+    Eigen::Matrix3d R;
+    double fit;
+  };
+  std::vector<Converged> converged;  // every converged result, for the ambiguity check below
   for (int k = 0; k < K; ++k) {
     const double psi = 2.0 * M_PI * k / K;
     NavState x = turned(prior.x, gap, psi > M_PI ? psi - 2.0 * M_PI : psi, up);
@@ -359,6 +373,7 @@ UpdateResult LidarUpdater::relocalise(StateHistory& history, double t, ScanRepor
     logger("estimator")->debug("re-localisation at t={:.6f} from heading {:+.0f} deg: fit {:.3f}, cost {:.1f}, {} iterations{}",
                                t, psi * 180.0 / M_PI, fit, cost, result.iterations, result.converged ? "" : " (not converged)");
     if (k == 0) prior_cost = cost;
+    if (result.updated && result.converged) converged.push_back({x.R, fit});
     const bool better = k == 0 || (result.updated && result.converged && cost < prior_cost - margin && cost < best_cost);
     if (!better) continue;
     best = result;
@@ -376,6 +391,28 @@ UpdateResult LidarUpdater::relocalise(StateHistory& history, double t, ScanRepor
                                                           t, report.fit, config_.recovery.commit_fit));
     best.updated = false;
     return best;
+  }
+  const double angle = config_.recovery.ambiguity_angle;
+  if (best.updated && std::abs(heading_between(prior.x.R, best_x.R, up)) > angle) {
+    // Ambiguous: the kept result turned away from the prior's heading while a result at another
+    // heading fits nearly as well. (A mirror image fitting as well as a result that kept the
+    // prior's heading is the normal case in a corridor: the prior decides, as it should.)
+    for (const Converged& c : converged) {
+      const double dpsi = heading_between(best_x.R, c.R, up);
+      if (std::abs(dpsi) <= angle || c.fit < report.fit - config_.recovery.ambiguity_fit) continue;
+      if (report.ambiguous && c.fit <= report.rival_fit) continue;
+      report.ambiguous = true;
+      report.rival_fit = c.fit;
+      report.rival_heading = dpsi;
+    }
+    if (report.ambiguous) {
+      counters_.count("recovery_ambiguous",
+                      fmt::format("re-localisation at t={:.6f} is ambiguous: it turned {:+.0f} deg from the prior's heading to a "
+                                  "fit of {:.3f}, and a result {:+.0f} deg from it fits {:.3f} "
+                                  "(recovery.ambiguity_fit {:.2f}): the heading may be wrong",
+                                  t, heading_between(prior.x.R, best_x.R, up) * 180.0 / M_PI, report.fit,
+                                  report.rival_heading * 180.0 / M_PI, report.rival_fit, config_.recovery.ambiguity_fit));
+    }
   }
   if (heading_change != 0.0) {
     counters_.count("recovery_heading_changed", "re-localisation at t=" + std::to_string(t) + " started from a heading " +

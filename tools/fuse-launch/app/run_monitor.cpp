@@ -25,7 +25,7 @@ const std::map<std::string, std::vector<std::string>>& summary_counters() {
         "correction_too_old", "odometry_deferred_catching_up"}},
       {"fuse-update",
        {"scans_processed", "scan_before_init", "scans_already_corrected", "scans_older_than_state", "scans_dropped_backlog",
-        "history_wait_timeout", "history_refused", "recovery_scans", "diverged", "observations_resent",
+        "history_wait_timeout", "history_refused", "recovery_scans", "recovery_ambiguous", "diverged", "observations_resent",
         "observations_given_up"}},
       {"fuse-map", {"map_observations_applied", "journal_errors", "pending_dropped", "pending_observations"}},
   };
@@ -240,6 +240,13 @@ RunMonitor::Verdict RunMonitor::finish(const std::vector<launch::ServiceReport>&
       if (const std::uint64_t value = total(service, n)) line += " " + n + "=" + std::to_string(value);
     }
     if (!line.empty()) out << "  " << service << ":" << line << "\n";
+  }
+  if (const std::uint64_t ambiguous = total("fuse-update", "recovery_ambiguous")) {
+    // Not a loss by itself (a handheld sensor that really turned through a gap in a box-shaped room
+    // gives it too), but the one sign of a mirrored track there is (docs/chaos.md).
+    out << fmt::format("  WARNING: {} ambiguous re-localisation(s): fuse-update turned the heading although a result at "
+                       "another heading fitted nearly as well; the estimate may be mirrored (see its log)\n",
+                       ambiguous);
   }
   for (const std::string& loss : v.losses) out << "  LOST: " << loss << "\n";
   v.summary = out.str();

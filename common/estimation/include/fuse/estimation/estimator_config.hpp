@@ -125,6 +125,17 @@ struct RecoveryConfig {
   /// location, and taking it moves a usable prior far off. Right headings after a gap across a
   /// turn have fitted as poorly as 0.39 and were worth taking (docs/chaos.md).
   double commit_fit = 0.2;
+  /// A re-localisation is ambiguous when its kept result's heading ended more than
+  /// ambiguity_angle (rad) from the prior's, while a result whose heading ended more than
+  /// ambiguity_angle from the kept one fits within ambiguity_fit of it: a young map that sees only
+  /// the way back, or a symmetric place, can fit a mirror image better than the truth. It is taken
+  /// all the same but counted (recovery_ambiguous), logged with both fits, flagged in the scan
+  /// report and summarised by fuse-run and fuse-launch: a warning, not a verdict (a handheld sensor
+  /// that turned through a gap in a box-shaped room gives it too; docs/chaos.md has the figures).
+  /// A mirror image that fits as well as a result keeping the prior's heading is the normal case
+  /// in a corridor (the prior decides) and is not flagged.
+  double ambiguity_angle = 1.0471975511965976;  // 60°
+  double ambiguity_fit = 0.1;
   /// m: a re-localised scan, and every scan until the vehicle has moved this far from it, offers
   /// the map only its points within map_hold_radius of the sensor. A re-localisation settles over
   /// a few scans, and one that settled a little off (along a corridor, tilted after a gap across a

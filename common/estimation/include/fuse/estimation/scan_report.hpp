@@ -17,6 +17,11 @@ struct ScanReport {
   int iterations = 0;
   bool converged = false;
   bool recovery = false;  ///< the prior was uncertain: re-localised (estimator.recovery)
+  /// The re-localisation was ambiguous (recovery.ambiguity_*): it turned away from the prior's
+  /// heading, and a result rival_heading (rad, about gravity) from the kept one fitted rival_fit,
+  /// nearly as well.
+  bool ambiguous = false;
+  double rival_fit = 0.0, rival_heading = 0.0;
   /// 1 − mean truncated residual cost (min(r², τ²)/τ², τ = recovery.inlier_residual) of the scan's
   /// kept points at the posterior (a point without a plane costs 1); every updated scan.
   double fit = 0.0;
