@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "fuse/core/logging.hpp"
+#include "fuse/map/map_names.hpp"
 
 namespace fuse::map_service {
 
@@ -69,6 +70,7 @@ const char* refusal_reason(const fuse_msgs::MapObservation& o) {
 
 MapService::MapService(const MapServerConfig& config, transport::Participant& participant)
     : core_(std::make_unique<MapServerCore>(config)),
+      saved_maps_(config.saved_maps()),
       chunks_(participant, transport::topics::kMapChunk),
       status_(participant, transport::topics::kMapStatus),
       reported_(log()) {
@@ -296,14 +298,7 @@ void MapService::handle_control(const fuse_msgs::MapControlRequest& request, fus
       break;
     }
     case fuse_msgs::MAP_SAVE:
-      try {
-        // Absolute: the caller runs in another directory.
-        const std::string path = std::filesystem::absolute(core_->save(request.path().to_string())).string();
-        reply.path(path);
-        log()->info("saved the map ({} points) to {}", core_->map().num_points(), path);
-      } catch (const std::exception& e) {
-        set_reply_error(reply, fuse_msgs::RPC_INTERNAL_ERROR, std::string("save failed: ") + e.what());
-      }
+      save_map(request.path().to_string(), reply);
       break;
     case fuse_msgs::MAP_LOAD:
       load_map(request.path().to_string(), reply);
@@ -335,11 +330,40 @@ void MapService::handle_control(const fuse_msgs::MapControlRequest& request, fus
   reply.sessions(session_acks(*core_));
 }
 
-void MapService::load_map(const std::string& path, fuse_msgs::MapControlReply& reply) {
-  if (path.empty()) {
-    set_reply_error(reply, fuse_msgs::RPC_BAD_REQUEST, "load needs a snapshot file");
+void MapService::save_map(const std::string& name, fuse_msgs::MapControlReply& reply) {
+  std::filesystem::path file;  // empty: a snapshot of the map directory itself
+  if (!name.empty()) {
+    std::string refused;
+    const std::optional<std::filesystem::path> resolved = resolve_map_name(saved_maps_, name, refused);
+    if (!resolved) {
+      report("control_refused", "save refused: " + refused);
+      set_reply_error(reply, fuse_msgs::RPC_BAD_REQUEST, "save refused: " + refused);
+      return;
+    }
+    file = *resolved;
+  }
+  try {
+    if (!file.empty()) std::filesystem::create_directories(saved_maps_);
+    // Absolute: the caller runs in another directory.
+    const std::string path = std::filesystem::absolute(core_->save(file)).string();
+    reply.path(path);
+    log()->info("control: saved the map ({} points) to {}", core_->map().num_points(), path);
+  } catch (const std::exception& e) {
+    set_reply_error(reply, fuse_msgs::RPC_INTERNAL_ERROR, std::string("save failed: ") + e.what());
+  }
+}
+
+void MapService::load_map(const std::string& name, fuse_msgs::MapControlReply& reply) {
+  std::string refused;
+  const std::optional<std::filesystem::path> resolved = resolve_map_name(saved_maps_, name, refused);
+  if (!resolved) {
+    // The same answer whatever lies at a path: no oracle for which files exist.
+    report("control_refused", "load refused: " + refused);
+    set_reply_error(reply, fuse_msgs::RPC_BAD_REQUEST, "load refused, the map is unchanged: " + refused);
     return;
   }
+  const std::string path = resolved->string();
+  log()->info("control: loading {}", path);
   std::map<std::uint64_t, std::uint64_t> before;  // key -> revision of the map being replaced
   core_->map().for_each_chunk([&](const PointChunk& c) { before[c.key] = c.revision; });
 

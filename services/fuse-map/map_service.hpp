@@ -24,6 +24,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <filesystem>
 #include <functional>
 #include <map>
 #include <memory>
@@ -90,7 +91,8 @@ class MapService {
   void run();
   void handle_observation(const fuse_msgs::MapObservation& observation);
   void handle_control(const fuse_msgs::MapControlRequest& request, fuse_msgs::MapControlReply& reply);
-  void load_map(const std::string& path, fuse_msgs::MapControlReply& reply);
+  void save_map(const std::string& name, fuse_msgs::MapControlReply& reply);
+  void load_map(const std::string& name, fuse_msgs::MapControlReply& reply);
   void publish_chunk(const PointChunk& chunk);
   void publish_all_chunks();
   void publish_status();
@@ -107,6 +109,7 @@ class MapService {
   void set_error(const std::string& error);
 
   std::unique_ptr<MapServerCore> core_;  ///< worker thread only (and the constructor)
+  std::filesystem::path saved_maps_;     ///< where save NAME and load NAME resolve (map_names.hpp)
   /// Worker thread: when the next retry() is due while degraded (unset: not degraded).
   std::optional<std::chrono::steady_clock::time_point> retry_at_;
 

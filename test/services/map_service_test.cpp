@@ -491,7 +491,7 @@ TEST(MapService, ControlToolSwitchesModeSavesAndLoads) {
     fuse_msgs::MapControlRequest req;
     req.command(command);
     if (command == fuse_msgs::MAP_SET_MODE) req.mode(argument);
-    if (command == fuse_msgs::MAP_LOAD) req.path(argument);
+    if (command == fuse_msgs::MAP_LOAD || command == fuse_msgs::MAP_SAVE) req.path(argument);
     return rpc.call(req, 10s);
   };
 
@@ -523,13 +523,35 @@ TEST(MapService, ControlToolSwitchesModeSavesAndLoads) {
   EXPECT_EQ(result.reply.mode().to_string(), "localization");
   EXPECT_EQ(ctl(dir, {"--domain", domain, "--mode", "flying"}).code, 2);
 
-  // Save to a file (a relative path is the tool's, made absolute).
-  r = run({"/bin/sh", "-c", "cd '" + dir.path().string() + "' && '" + FUSE_MAP_CTL_BIN +
-                                "' --deadline-ms 10000 --domain " + domain + " save saved.snapshot"},
-          dir);
+  // Save under a name: into the saved maps (map/saved by default), the path printed.
+  r = ctl(dir, {"--domain", domain, "save", "saved.snapshot"});
   ASSERT_EQ(r.code, 0) << r.out;
-  EXPECT_TRUE(fs::exists(dir.str("saved.snapshot")));
-  EXPECT_NE(r.out.find(dir.str("saved.snapshot")), std::string::npos) << r.out;
+  EXPECT_TRUE(fs::exists(dir.str("map/saved/saved.snapshot")));
+  EXPECT_NE(r.out.find(dir.str("map/saved/saved.snapshot")), std::string::npos) << r.out;
+
+  // Names only: no path reaches the server's file system, whatever lies there (issue: a control
+  // request could write /etc or clobber the live journal, and tell which files exist).
+  const std::string journal_before = read_text(dir.str("map/map.journal"));
+  for (const std::string& bad : {dir.str("outside.snapshot"), std::string("../outside.snapshot"),
+                                 std::string("saved/../../outside.snapshot"), std::string(".hidden")}) {
+    result = control(fuse_msgs::MAP_SAVE, bad);
+    EXPECT_EQ(result.status, fuse_msgs::RPC_BAD_REQUEST) << bad << ": " << result.message;
+  }
+  EXPECT_FALSE(fs::exists(dir.str("outside.snapshot")));
+  EXPECT_FALSE(fs::exists(dir.str("map/outside.snapshot")));
+  result = control(fuse_msgs::MAP_SAVE, "map.journal");  // a name, so a saved map: not the live journal
+  ASSERT_TRUE(result.ok()) << result.message;
+  EXPECT_EQ(result.reply.path().to_string(), dir.str("map/saved/map.journal"));
+  EXPECT_EQ(read_text(dir.str("map/map.journal")), journal_before);
+  const auto load_existing = control(fuse_msgs::MAP_LOAD, dir.str("map/saved/saved.snapshot"));
+  const auto load_missing = control(fuse_msgs::MAP_LOAD, dir.str("map/saved/no-such.snapshot"));
+  EXPECT_EQ(load_existing.status, fuse_msgs::RPC_BAD_REQUEST);
+  EXPECT_EQ(load_existing.message, load_missing.message) << "no oracle for which files exist";
+  EXPECT_EQ(ctl(dir, {"--domain", domain, "save", "../outside.snapshot"}).code, 2) << "the tool refuses a path too";
+  EXPECT_EQ(ctl(dir, {"--domain", domain, "load", "/etc/passwd"}).code, 2);
+  r = ctl(dir, {"--domain", domain, "--json", "stats"});
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(json_field(r.out, "epoch"), std::to_string(epoch)) << "nothing refused changed the map";
 
   // Back to mapping; new points 100 m away make new chunks.
   ASSERT_TRUE(control(fuse_msgs::MAP_SET_MODE, "mapping").ok());
@@ -539,7 +561,7 @@ TEST(MapService, ControlToolSwitchesModeSavesAndLoads) {
   const auto before_load = client.chunks();
 
   // Load the saved file: the epoch increases, the map is the saved one, chunks it lacks go empty.
-  r = ctl(dir, {"--domain", domain, "--json", "load", dir.str("saved.snapshot")});
+  r = ctl(dir, {"--domain", domain, "--json", "load", "saved.snapshot"});
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_EQ(json_field(r.out, "epoch"), std::to_string(epoch + 1));
   EXPECT_EQ(json_field(r.out, "points"), "500");
@@ -564,13 +586,13 @@ TEST(MapService, ControlToolSwitchesModeSavesAndLoads) {
   EXPECT_EQ(json_field(r.out, "journal_records"), "0");
 
   // A missing or damaged file: an error reply, the map unchanged.
-  r = ctl(dir, {"--domain", domain, "--json", "load", dir.str("missing.snapshot")});
+  r = ctl(dir, {"--domain", domain, "--json", "load", "missing.snapshot"});
   EXPECT_EQ(r.code, 3) << r.out;
   EXPECT_EQ(json_field(r.out, "status"), "bad_request");
   EXPECT_EQ(json_field(r.out, "epoch"), std::to_string(epoch + 1));
   EXPECT_EQ(json_field(r.out, "points"), "500");
-  std::ofstream(dir.str("garbage.snapshot")) << "not a snapshot at all";
-  result = control(fuse_msgs::MAP_LOAD, dir.str("garbage.snapshot"));
+  std::ofstream(dir.str("map/saved/garbage.snapshot")) << "not a snapshot at all";
+  result = control(fuse_msgs::MAP_LOAD, "garbage.snapshot");
   EXPECT_EQ(result.status, fuse_msgs::RPC_BAD_REQUEST) << result.message;
   EXPECT_EQ(result.reply.epoch(), epoch + 1);
   EXPECT_EQ(result.reply.points(), 500u);

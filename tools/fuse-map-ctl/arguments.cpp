@@ -10,6 +10,7 @@
 #include "fuse/cli/cli.hpp"
 
 #include "fuse/core/config.hpp"
+#include "fuse/map/map_names.hpp"
 
 namespace fuse::map_ctl {
 
@@ -50,7 +51,9 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
   const auto app = cli::make_app(
       "fuse-map-ctl",
       "Controls the running map server (fuse-map) through its map/control service: one command, --mode M, "
-      "save [FILE], load FILE or stats; prints the map's state after it (or one JSON object).",
+      "save [NAME], load NAME or stats; prints the map's state after it (or one JSON object). A NAME is a saved "
+      "map's file name in the map server's directory of saved maps (map_server.saved_directory, by default "
+      "DIR/saved); paths are refused.",
       "Exit codes: 0 done, 2 usage or config, 3 error reply, 4 no server answered before the deadline.");
   std::string deadline;
   app->add_option("--mode", a.mode, "mapping (observations change the map) or localization (the map is frozen)")
@@ -67,10 +70,11 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
       "state (running | degraded, and why), mode, epoch, points, chunks, acknowledged sequence, journal records "
       "and write errors, observations pending in memory and dropped, damage skipped at load, and the "
       "acknowledged sequence of each recently active session");
-  CLI::App* save = app->add_subcommand("save", "a snapshot into the map directory, or into FILE (prints the path)");
-  save->add_option("FILE", a.file, "snapshot file");
-  CLI::App* load = app->add_subcommand("load", "replaces the map by a snapshot file's (the epoch increases)");
-  load->add_option("FILE", a.file, "snapshot file")->required();
+  CLI::App* save = app->add_subcommand(
+      "save", "a snapshot into the map directory, or a copy named NAME into the saved maps (prints the path)");
+  save->add_option("NAME", a.file, "saved map's name (letters, digits, '.', '_', '-')");
+  CLI::App* load = app->add_subcommand("load", "replaces the map by the saved map NAME (the epoch increases)");
+  load->add_option("NAME", a.file, "saved map's name")->required();
   app->require_subcommand(0, 1);
   if (const std::optional<int> code = cli::parse(*app, argc, argv)) return code;
 
@@ -87,8 +91,9 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
   } catch (const std::invalid_argument& e) {
     return cli::usage_error(*app, e.what());
   }
-  if (a.file.size() > 1023) return cli::usage_error(*app, "FILE: the path is longer than 1023 characters");
-  if (!a.file.empty()) a.file = std::filesystem::absolute(a.file).lexically_normal().string();
+  if (!a.file.empty()) {
+    if (const std::string why = invalid_map_name(a.file); !why.empty()) return cli::usage_error(*app, "NAME: " + why);
+  }
   // After every --set: the explicit options win.
   a.overrides = transport.sets();
   const std::vector<std::string> shorthands = transport.shorthands();

@@ -14,7 +14,7 @@ enum class Command { kNone, kStats, kSetMode, kSave, kLoad };
 struct Arguments {
   Command command = Command::kNone;
   std::string mode;  ///< --mode: mapping | localization
-  std::string file;  ///< save [FILE] / load FILE, made absolute (fuse-map runs elsewhere)
+  std::string file;  ///< save [NAME] / load NAME: a saved map's name (fuse/map/map_names.hpp)
   std::string config_file;             ///< optional: its `transport:` section
   std::vector<std::string> overrides;  ///< --set dotted.key=value in order, then --domain, --vendor
   int deadline_ms = 5000;

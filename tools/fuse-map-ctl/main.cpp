@@ -1,7 +1,7 @@
 // fuse-map-ctl: controls the running map server through its map/control service.
 //
 //   fuse-map-ctl [--config FILE] [--set key=value]... [--domain N] [--vendor V] [--deadline-ms N]
-//                [--json] (--mode mapping|localization | save [FILE] | load FILE | stats)   (--help; --version)
+//                [--json] (--mode mapping|localization | save [NAME] | load NAME | stats)   (--help; --version)
 //
 // Prints the map's state after the command (or one JSON object, errors included).
 // Exit codes: 0 done, 2 usage or config, 3 error reply, 4 no server answered before the deadline.

@@ -37,10 +37,14 @@ SpatialIndexConfig MapServerConfig::default_index() {
 void MapServerConfig::load(ConfigNode& node) {
   node.get("directory", directory).get("chunk_size", chunk_size).get("snapshot_every", snapshot_every);
   node.get("fsync", fsync).get("max_pending_bytes", max_pending_bytes).get("retry_interval_s", retry_interval_s);
-  node.get("spill_directory", spill_directory);
+  node.get("spill_directory", spill_directory).get("saved_directory", saved_directory);
   load_section(node, "policy", policy);
   load_section(node, "index", index);
   node.check(!directory.empty(), "directory", "must be set");
+  // With a trailing separator on both, "map", "./map" and "map/" compare equal.
+  node.check((std::filesystem::path(saved_directory) / "").lexically_normal() !=
+                 (std::filesystem::path(directory) / "").lexically_normal(),
+             "saved_directory", "must not be the map directory (its live snapshot and journal)");
   node.check(std::isfinite(chunk_size) && chunk_size >= 1.0 && chunk_size <= 1000.0, "chunk_size",
              "must be in [1, 1000] m");
   node.check(index.max_voxels >= kMinServerVoxels, "index.max_voxels",
@@ -50,6 +54,10 @@ void MapServerConfig::load(ConfigNode& node) {
   node.check(std::isfinite(retry_interval_s) && retry_interval_s > 0.0 && retry_interval_s <= kMaxRetryIntervalS,
              "retry_interval_s", "must be in (0, " + std::to_string(static_cast<int>(kMaxRetryIntervalS)) + "] s");
   node.finish();
+}
+
+std::filesystem::path MapServerConfig::saved_maps() const {
+  return saved_directory.empty() ? std::filesystem::path(directory) / "saved" : std::filesystem::path(saved_directory);
 }
 
 MapServerCore::MapServerCore(const MapServerConfig& config, MapStorage::Access access)

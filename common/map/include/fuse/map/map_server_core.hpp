@@ -85,6 +85,11 @@ struct MapServerConfig {
   /// sent them may be gone too. Emptied once every pending observation is journaled. Empty: kept
   /// in memory only.
   std::string spill_directory;
+  /// Where the control RPC's `save NAME` writes and `load NAME` reads (map_names.hpp): never the
+  /// map directory itself, whose live snapshot and journal no name may reach. Empty: DIR/saved.
+  std::string saved_directory;
+  /// saved_directory, or its default.
+  std::filesystem::path saved_maps() const;
   MapPolicyConfig policy;            ///< policy.mode is the mode at start-up
   /// The policy's nearest-neighbour index over the map's points. A restart rebuilds the same map
   /// when the index holds every point: it never evicts (max_voxels), and max_points_per_voxel
