@@ -163,6 +163,9 @@ TEST_F(QueryCli, UsageErrorsExitWithTwo) {
   EXPECT_EQ(query("--set transport.unknown_key=1").code, 2);
   EXPECT_EQ(query("--set novalue").code, 2);
   EXPECT_EQ(query("--set transport.domain_id=500").code, 2);
+  const Run wildcard = query("--system 'rig*'");  // a partition wildcard would match other systems
+  EXPECT_EQ(wildcard.code, 2);
+  EXPECT_NE(wildcard.err.find("system_name"), std::string::npos) << wildcard.err;
   const Run help = query("--help");
   EXPECT_EQ(help.code, 0);
   EXPECT_NE(help.out.find("Usage: fuse-query"), std::string::npos);

@@ -163,6 +163,29 @@ TEST(CrossVendor, RpcDeadlineWithoutServerIsUnavailable) {
   }
 }
 
+TEST(CrossVendor, OneSystemSpansBothVendorsAndOnlyIt) {
+  // transport.system_name is a DDS partition: both vendors' processes of one system match, a
+  // second system on the same domain matches neither.
+  TransportConfig fast_cfg = config("fastdds", 19), cyclone_cfg = config("cyclonedds", 19),
+                  other_cfg = config("cyclonedds", 19);
+  fast_cfg.system_name = cyclone_cfg.system_name = "rig";
+  other_cfg.system_name = "rig-2";
+  auto fast = make_participant(fast_cfg, "fast");
+  auto cyclone = make_participant(cyclone_cfg, "cyclone");
+  auto other = make_participant(other_cfg, "other");
+  Inbox<fuse_msgs::ImuSample> in_cyclone, in_other;
+  Subscriber<fuse_msgs::ImuSample> sub_cyclone(*cyclone, topics::kImu, std::ref(in_cyclone));
+  Subscriber<fuse_msgs::ImuSample> sub_other(*other, topics::kImu, std::ref(in_other));
+  Publisher<fuse_msgs::ImuSample> pub_fast(*fast, topics::kImu);
+  Publisher<fuse_msgs::ImuSample> pub_other(*other, topics::kImu);  // other's own pair: discovery done
+  ASSERT_TRUE(wait_until([&] { return pub_fast.matched() >= 1 && pub_other.matched() >= 1; }));
+  EXPECT_TRUE(pub_fast.publish(make_imu(3)));
+  ASSERT_TRUE(in_cyclone.wait_for(1));
+  EXPECT_EQ(pub_fast.matched(), 1u);
+  EXPECT_EQ(sub_other.matched(), 1u) << "only its own system's writer";
+  EXPECT_EQ(in_other.size(), 0u);
+}
+
 TEST(CrossVendor, MalformedSamplesAreCountedOnBothSides) {
   auto fast = make_participant(config("fastdds", 37), "fast");
   auto cyclone = make_participant(config("cyclonedds", 37), "cyclone");

@@ -7,7 +7,7 @@ namespace {
 
 class PubSub : public ::testing::TestWithParam<std::string> {
  protected:
-  /// Domain ids 11..15, 17 (fastdds) and 21..25, 27 (cyclonedds).
+  /// Domain ids 11..15, 17, 18 (fastdds) and 21..25, 27, 28 (cyclonedds); 16 and 26 are CrossProcess'.
   int domain(int offset) const { return (GetParam() == "fastdds" ? 11 : 21) + offset; }
   TransportConfig cfg(int offset) const { return config(GetParam(), domain(offset)); }
 };
@@ -148,6 +148,39 @@ TEST_P(PubSub, WaitForAcknowledgmentsCoversEverythingWrittenBeforeTheWriterGoes)
   ASSERT_TRUE(in.wait_for(kSamples, 5s)) << in.size() << " of " << kSamples;
   const auto got = in.messages();
   for (int i = 0; i < kSamples; ++i) EXPECT_EQ(got[i].sequence_number(), static_cast<std::uint64_t>(i + 1));
+}
+
+TEST_P(PubSub, TwoSystemsOnOneDomainDoNotSeeEachOther) {
+  // transport.system_name: A and B are two systems on one domain, A2 is a second process of A.
+  TransportConfig a_cfg = cfg(7), b_cfg = cfg(7);
+  a_cfg.system_name = "vehicle-a";
+  b_cfg.system_name = "vehicle-b";
+  auto a = make_participant(a_cfg, "a");
+  auto a2 = make_participant(a_cfg, "a2");
+  auto b = make_participant(b_cfg, "b");
+  auto unnamed = make_participant(cfg(7), "unnamed");  // the default partition
+  Inbox<fuse_msgs::ImuSample> in_a2, in_b, in_unnamed;
+  Subscriber<fuse_msgs::ImuSample> sub_a2(*a2, topics::kImu, std::ref(in_a2));
+  Subscriber<fuse_msgs::ImuSample> sub_b(*b, topics::kImu, std::ref(in_b));
+  Subscriber<fuse_msgs::ImuSample> sub_unnamed(*unnamed, topics::kImu, std::ref(in_unnamed));
+  Publisher<fuse_msgs::ImuSample> pub_a(*a, topics::kImu);
+  Publisher<fuse_msgs::ImuSample> pub_b(*b, topics::kImu);
+  Publisher<fuse_msgs::ImuSample> pub_unnamed(*unnamed, topics::kImu);
+  // Every participant has been discovered once each partition's own pair has matched.
+  ASSERT_TRUE(wait_until([&] {
+    return pub_a.matched() >= 1 && pub_b.matched() >= 1 && pub_unnamed.matched() >= 1 && sub_a2.matched() >= 1;
+  }));
+  EXPECT_TRUE(pub_a.publish(make_imu(1)));
+  EXPECT_TRUE(pub_b.publish(make_imu(2)));
+  ASSERT_TRUE(in_a2.wait_for(1));
+  ASSERT_TRUE(in_b.wait_for(1));
+  EXPECT_EQ(in_a2.messages().front().t(), make_imu(1).t());
+  EXPECT_EQ(in_b.messages().front().t(), make_imu(2).t());
+  EXPECT_EQ(pub_a.matched(), 1u) << "A's IMU is matched by A only";
+  EXPECT_EQ(pub_b.matched(), 1u);
+  EXPECT_EQ(sub_unnamed.matched(), 1u) << "the default partition hears only its own";
+  EXPECT_EQ(in_a2.size() + in_b.size(), 2u);
+  EXPECT_EQ(in_unnamed.size(), 0u);
 }
 
 INSTANTIATE_TEST_SUITE_P(Vendors, PubSub, ::testing::ValuesIn(vendors()),

@@ -55,12 +55,15 @@ TransportFlags::TransportFlags(CLI::App& app) {
   app.add_option("--vendor", vendor_, "DDS implementation, fastdds or cyclonedds: --set transport.vendor=V")
       ->type_name("V")
       ->check(CLI::IsMember({"fastdds", "cyclonedds"}));
+  app.add_option("--system", system_, "the system's name, its DDS partition: --set transport.system_name=NAME")
+      ->type_name("NAME");
 }
 
 std::vector<std::string> TransportFlags::shorthands() const {
   std::vector<std::string> out;
   if (domain_) out.push_back("transport.domain_id=" + std::to_string(*domain_));
   if (!vendor_.empty()) out.push_back("transport.vendor=" + vendor_);
+  if (system_) out.push_back("transport.system_name=\"" + *system_ + "\"");  // quoted: a string whatever it looks like
   return out;
 }
 

@@ -5,7 +5,7 @@ namespace fuse::transport {
 void TransportConfig::load(ConfigNode& node) {
   node.get("vendor", vendor).get("domain_id", domain_id).get("loopback_only", loopback_only);
   node.get("max_participants", max_participants).get("socket_buffer_bytes", socket_buffer_bytes);
-  node.get("shared_memory", shared_memory);
+  node.get("shared_memory", shared_memory).get("system_name", system_name);
   node.check(vendor == "fastdds" || vendor == "cyclonedds", "vendor", "must be fastdds or cyclonedds");
   // Ports are 7400 + 250 * domain + ...: above 101 they run into the ephemeral range.
   node.check(domain_id >= 0 && domain_id <= 101, "domain_id", "must be in [0, 101]");
@@ -13,6 +13,12 @@ void TransportConfig::load(ConfigNode& node) {
   node.check(max_participants >= 4 && max_participants <= 120, "max_participants", "must be in [4, 120]");
   node.check(socket_buffer_bytes >= (64u << 10) && socket_buffer_bytes <= (256u << 20), "socket_buffer_bytes",
              "must be in [64 KiB, 256 MiB]");
+  bool name_ok = system_name.size() <= 64;
+  for (const char c : system_name) {
+    name_ok = name_ok && ((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+                          c == '-' || c == '.');
+  }
+  node.check(name_ok, "system_name", "must be at most 64 letters, digits, '_', '-' or '.' (empty: the default partition)");
   node.finish();
 }
 

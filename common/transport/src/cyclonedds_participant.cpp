@@ -394,6 +394,18 @@ class Context {
       throw std::runtime_error("transport: Cyclone DDS could not create a participant on domain " +
                                std::to_string(domain_id_) + ": " + error_text(participant_));
     }
+    // transport.system_name: one publisher and one subscriber in that partition, parents of every
+    // writer and reader, so that two systems on one domain never match (empty: the default one).
+    QosPtr partition(dds_create_qos());
+    if (!config.system_name.empty()) dds_qset_partition1(partition.get(), config.system_name.c_str());
+    publisher_ = dds_create_publisher(participant_, partition.get(), nullptr);
+    subscriber_ = dds_create_subscriber(participant_, partition.get(), nullptr);
+    if (publisher_ < 0 || subscriber_ < 0) {
+      const dds_return_t rc = publisher_ < 0 ? publisher_ : subscriber_;
+      dds_delete(participant_);
+      Domains::instance().release(domain_id_);
+      throw std::runtime_error("transport: Cyclone DDS could not create a publisher/subscriber: " + error_text(rc));
+    }
   }
   ~Context() {
     dds_delete(participant_);
@@ -401,6 +413,8 @@ class Context {
   }
 
   dds_entity_t participant() const { return participant_; }
+  dds_entity_t publisher() const { return publisher_; }
+  dds_entity_t subscriber() const { return subscriber_; }
 
   /// The topic of this name (created on first use with our sertype for the type).
   dds_entity_t topic(const std::string& name, const TypeSupport& type) {
@@ -436,6 +450,7 @@ class Context {
   };
   int domain_id_;
   dds_entity_t participant_ = 0;
+  dds_entity_t publisher_ = 0, subscriber_ = 0;  // deleted with the participant
   std::mutex mutex_;
   std::map<std::string, TopicEntry> topics_;  // deleted with the participant
 };
@@ -446,7 +461,7 @@ class CycloneWriter : public RawWriter {
                 const TopicQos& qos)
       : context_(std::move(context)), topic_(topic) {
     const dds_entity_t t = context_->topic(topic, type);
-    writer_ = dds_create_writer(context_->participant(), t, endpoint_qos(qos, true).get(), nullptr);
+    writer_ = dds_create_writer(context_->publisher(), t, endpoint_qos(qos, true).get(), nullptr);
     if (writer_ < 0) {
       throw std::runtime_error("transport: Cyclone DDS could not create a writer on '" + topic +
                                "': " + error_text(writer_));
@@ -489,7 +504,7 @@ class CycloneReader : public RawReader {
     const dds_entity_t t = context_->topic(topic, type);
     dds_listener_t* listener = dds_create_listener(this);
     dds_lset_data_available(listener, &CycloneReader::on_data_available);
-    reader_ = dds_create_reader(context_->participant(), t, endpoint_qos(qos, false).get(), listener);
+    reader_ = dds_create_reader(context_->subscriber(), t, endpoint_qos(qos, false).get(), listener);
     dds_delete_listener(listener);
     if (reader_ < 0) {
       throw std::runtime_error("transport: Cyclone DDS could not create a reader on '" + topic +

@@ -159,8 +159,16 @@ class Context {
       throw std::runtime_error("transport: Fast DDS could not create a participant on domain " +
                                std::to_string(config.domain_id));
     }
-    publisher_ = participant_->create_publisher(dds::PUBLISHER_QOS_DEFAULT);
-    subscriber_ = participant_->create_subscriber(dds::SUBSCRIBER_QOS_DEFAULT);
+    // transport.system_name: every endpoint in that partition only, so that two systems on one
+    // domain never match each other's topics (empty: the default partition).
+    dds::PublisherQos publisher_qos = dds::PUBLISHER_QOS_DEFAULT;
+    dds::SubscriberQos subscriber_qos = dds::SUBSCRIBER_QOS_DEFAULT;
+    if (!config.system_name.empty()) {
+      publisher_qos.partition().push_back(config.system_name.c_str());
+      subscriber_qos.partition().push_back(config.system_name.c_str());
+    }
+    publisher_ = participant_->create_publisher(publisher_qos);
+    subscriber_ = participant_->create_subscriber(subscriber_qos);
     if (publisher_ == nullptr || subscriber_ == nullptr) {
       participant_->delete_contained_entities();
       factory->delete_participant(participant_);

@@ -22,14 +22,15 @@ std::unique_ptr<CLI::App> make_app(const std::string& name, const std::string& d
 /// --version (printed), kExitUsage after a usage error ("NAME: what, naming the flag" on stderr).
 std::optional<int> parse(CLI::App& app, int argc, char** argv);
 
-/// --set KEY=VALUE (repeatable), --domain N and --vendor V: the transport options of every binary
+/// --set KEY=VALUE (repeatable), --domain N, --vendor V and --system NAME: the transport options of every binary
 /// that talks DDS. Construct before parsing (it adds the options to `app`), read after.
 class TransportFlags {
  public:
   explicit TransportFlags(CLI::App& app);
   /// The --set values, in order.
   const std::vector<std::string>& sets() const { return sets_; }
-  /// --domain and --vendor as the overrides transport.domain_id=N and transport.vendor=V.
+  /// --domain, --vendor and --system as the overrides transport.domain_id=N, transport.vendor=V
+  /// and transport.system_name=NAME.
   std::vector<std::string> shorthands() const;
   /// shorthands() then sets(): a --set of the same key wins.
   std::vector<std::string> overrides() const;
@@ -38,6 +39,7 @@ class TransportFlags {
   std::vector<std::string> sets_;
   std::optional<int> domain_;
   std::string vendor_;
+  std::optional<std::string> system_;
 };
 
 /// Checks that an option's value is a finite number (CLI11 reads "inf" and "nan" as numbers).

@@ -26,6 +26,11 @@ struct TransportConfig {
   int max_participants = 32;
   std::size_t socket_buffer_bytes = 4u << 20;  ///< send/receive buffers (~1 MiB clouds need 4 MiB)
   bool shared_memory = false;  ///< Fast DDS shared-memory transport / data-sharing (off: UDP only)
+  /// The system this process belongs to: every topic and RPC of it lives in the DDS partition of
+  /// this name, so two systems on one domain never see each other, while topic names (and so
+  /// recordings and their replay) stay the same. Empty: the default partition. 1–64 letters,
+  /// digits, '_', '-', '.' (no partition wildcards).
+  std::string system_name;
   void load(ConfigNode& node);
 };
 
