@@ -330,16 +330,23 @@ void MapService::handle_control(const fuse_msgs::MapControlRequest& request, fus
   reply.sessions(session_acks(*core_));
 }
 
+std::optional<std::filesystem::path> MapService::saved_map(const std::string& name, const std::string& refusal,
+                                                           fuse_msgs::MapControlReply& reply) {
+  std::string why;
+  std::optional<std::filesystem::path> resolved = resolve_map_name(saved_maps_, name, why);
+  if (!resolved) {
+    // The same answer whatever lies at a path: no oracle for which files exist.
+    report("control_refused", refusal + ": " + why);
+    set_reply_error(reply, fuse_msgs::RPC_BAD_REQUEST, refusal + ": " + why);
+  }
+  return resolved;
+}
+
 void MapService::save_map(const std::string& name, fuse_msgs::MapControlReply& reply) {
   std::filesystem::path file;  // empty: a snapshot of the map directory itself
   if (!name.empty()) {
-    std::string refused;
-    const std::optional<std::filesystem::path> resolved = resolve_map_name(saved_maps_, name, refused);
-    if (!resolved) {
-      report("control_refused", "save refused: " + refused);
-      set_reply_error(reply, fuse_msgs::RPC_BAD_REQUEST, "save refused: " + refused);
-      return;
-    }
+    const std::optional<std::filesystem::path> resolved = saved_map(name, "save refused", reply);
+    if (!resolved) return;
     file = *resolved;
   }
   try {
@@ -354,14 +361,8 @@ void MapService::save_map(const std::string& name, fuse_msgs::MapControlReply& r
 }
 
 void MapService::load_map(const std::string& name, fuse_msgs::MapControlReply& reply) {
-  std::string refused;
-  const std::optional<std::filesystem::path> resolved = resolve_map_name(saved_maps_, name, refused);
-  if (!resolved) {
-    // The same answer whatever lies at a path: no oracle for which files exist.
-    report("control_refused", "load refused: " + refused);
-    set_reply_error(reply, fuse_msgs::RPC_BAD_REQUEST, "load refused, the map is unchanged: " + refused);
-    return;
-  }
+  const std::optional<std::filesystem::path> resolved = saved_map(name, "load refused, the map is unchanged", reply);
+  if (!resolved) return;
   const std::string path = resolved->string();
   log()->info("control: loading {}", path);
   std::map<std::uint64_t, std::uint64_t> before;  // key -> revision of the map being replaced

@@ -91,6 +91,10 @@ class MapService {
   void run();
   void handle_observation(const fuse_msgs::MapObservation& observation);
   void handle_control(const fuse_msgs::MapControlRequest& request, fuse_msgs::MapControlReply& reply);
+  /// The saved map `name` resolves to (map_names.hpp), or nullopt after refusing the request:
+  /// counted, and the reply's error is `refusal` and what a name must be.
+  std::optional<std::filesystem::path> saved_map(const std::string& name, const std::string& refusal,
+                                                 fuse_msgs::MapControlReply& reply);
   void save_map(const std::string& name, fuse_msgs::MapControlReply& reply);
   void load_map(const std::string& name, fuse_msgs::MapControlReply& reply);
   void publish_chunk(const PointChunk& chunk);

@@ -46,7 +46,6 @@ LidarUpdater::LidarUpdater(const EstimatorConfig& config)
 }
 
 namespace {
-/// Largest σ of a 3×3 block of P: the square root of its largest eigenvalue.
 /// Signed angle (rad, about `up`) from R_a's heading to R_b's: the body axis farthest from `up`
 /// (x unless the body is pitched past 45°), projected on the horizontal plane, in each.
 double heading_between(const Eigen::Matrix3d& R_a, const Eigen::Matrix3d& R_b, const Eigen::Vector3d& up) {
@@ -56,6 +55,7 @@ double heading_between(const Eigen::Matrix3d& R_a, const Eigen::Matrix3d& R_b, c
   return std::atan2(up.dot(a.cross(b)), a.dot(b));
 }
 
+/// Largest σ of a 3×3 block of P: the square root of its largest eigenvalue.
 double largest_std(const StateCovariance& P, int idx) {
   const Eigen::Matrix3d block = P.block<3, 3>(idx, idx);
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(block, Eigen::EigenvaluesOnly);

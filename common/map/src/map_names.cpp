@@ -1,15 +1,14 @@
 #include "fuse/map/map_names.hpp"
 
+#include "fuse/core/plain_name.hpp"
+
 namespace fuse {
 
 std::string invalid_map_name(const std::string& name) {
   const std::string rule = "a saved map's name is a file name of 1-" + std::to_string(kMaxMapNameLength) +
                            " letters, digits, '.', '_' or '-', not starting with '.'; paths are refused";
-  if (name.empty() || name.size() > kMaxMapNameLength || name.front() == '.') return rule;
-  for (const char c : name) {
-    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' || c == '_' ||
-                    c == '-';
-    if (!ok) return rule;
+  if (name.empty() || name.size() > kMaxMapNameLength || name.front() == '.' || !has_only_plain_name_chars(name)) {
+    return rule;
   }
   return {};
 }

@@ -1,5 +1,7 @@
 #include "fuse/transport/transport.hpp"
 
+#include "fuse/core/plain_name.hpp"
+
 namespace fuse::transport {
 
 void TransportConfig::load(ConfigNode& node) {
@@ -13,12 +15,7 @@ void TransportConfig::load(ConfigNode& node) {
   node.check(max_participants >= 4 && max_participants <= 120, "max_participants", "must be in [4, 120]");
   node.check(socket_buffer_bytes >= (64u << 10) && socket_buffer_bytes <= (256u << 20), "socket_buffer_bytes",
              "must be in [64 KiB, 256 MiB]");
-  bool name_ok = system_name.size() <= 64;
-  for (const char c : system_name) {
-    name_ok = name_ok && ((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
-                          c == '-' || c == '.');
-  }
-  node.check(name_ok, "system_name", "must be at most 64 letters, digits, '_', '-' or '.' (empty: the default partition)");
+  node.check(system_name.size() <= 64 && has_only_plain_name_chars(system_name), "system_name", "must be at most 64 letters, digits, '_', '-' or '.' (empty: the default partition)");
   node.finish();
 }
 
