@@ -8,7 +8,8 @@
 #                BENCH_ARGS (extra fuse-bench-pipeline options for the real-time runs, e.g.
 #                --observe-scan for the scan's own hop, which adds a second scan reader),
 #                SETS (space-separated key=value config overrides for every run, e.g.
-#                "transport.shared_memory=true"), UPDATE_NICE / STATE_NICE / CLIENT_NICE (niceness
+#                "transport.shared_memory=true"), SECURE=1 (DDS Security on: a keystore made with
+#                fuse-keystore in the work directory), UPDATE_NICE / STATE_NICE / CLIENT_NICE (niceness
 #                of fuse-update, fuse-state and the bench client in the real-time runs, default 0;
 #                negative values need root), STATE_RT / CLIENT_RT (SCHED_FIFO priority 1-99 for
 #                fuse-state and the bench client instead of their niceness, as deploy/ can with
@@ -67,12 +68,23 @@ COMMON=(--config "$CONFIG" --set "transport.vendor=$VENDOR")
 SET_ARGS=()
 for kv in ${SETS:-}; do SET_ARGS+=(--set "$kv"); done
 COMMON+=("${SET_ARGS[@]}")
+# SECURE=1: DDS Security on, with a keystore of its own (the bench's two participants join as a
+# recorder and a planner).
+if [ "${SECURE:-0}" = 1 ]; then
+  KEYSTORE="$WORK/keystore"
+  rm -rf "$KEYSTORE"
+  "$BIN/fuse-keystore" init "$KEYSTORE"
+  "$BIN/fuse-keystore" add-identity "$KEYSTORE" fuse-bench-pipeline --role recorder
+  "$BIN/fuse-keystore" add-identity "$KEYSTORE" fuse-bench-pipeline-query --role planner
+  COMMON+=(--set transport.security.enabled=true --set "transport.security.keystore=$KEYSTORE")
+fi
 
 echo "date: $(date -u +%Y-%m-%dT%H:%M:%SZ)"
 echo "load_before: $(cut -d' ' -f1-3 /proc/loadavg)"
 echo "recording: $REC"
 echo "vendor: $VENDOR"
 echo "overrides: ${SETS:-none}"
+echo "security: ${SECURE:-0}"
 echo "update_nice: ${UPDATE_NICE:-0}"
 echo "state_nice: ${STATE_NICE:-0}"
 echo "client_nice: ${CLIENT_NICE:-0}"

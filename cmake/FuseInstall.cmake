@@ -21,7 +21,7 @@ set(FUSE_UNITS fuse-slam-map.service fuse-slam-state.service fuse-slam-update.se
 # ---- binaries: the four services and the operator tools ---------------------------------
 install(TARGETS fuse-map fuse-state fuse-update fuse-ingest
   RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT runtime)
-install(TARGETS fuse-launch fuse-map-ctl fuse-map-export fuse-record fuse-run fuse-eval fuse-sim fuse-import
+install(TARGETS fuse-launch fuse-map-ctl fuse-keystore fuse-map-export fuse-record fuse-run fuse-eval fuse-sim fuse-import
   RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT runtime)
 install(FILES ${PROJECT_SOURCE_DIR}/config/mid360.yaml ${PROJECT_SOURCE_DIR}/config/spinning.yaml
   DESTINATION ${CMAKE_INSTALL_DATADIR}/fuse-slam/config COMPONENT runtime)
@@ -53,8 +53,12 @@ install(CODE "
        RENAME 60-fuse-slam-dds.conf FILES \"${FUSE_DEPLOY_DIR}/fuse-slam-dds.sysctl\")
   file(INSTALL DESTINATION \"\${FUSE_UDEV_DIR}\" TYPE FILE
        RENAME 60-fuse-slam-cpu-latency.rules FILES \"${FUSE_DEPLOY_DIR}/fuse-slam-cpu-latency.rules\")
-  file(INSTALL DESTINATION \"\${FUSE_CONFIG_DIR}\" TYPE FILE
-       RENAME fuse-slam.yaml FILES \"${PROJECT_SOURCE_DIR}/config/mid360.yaml\")
+  # The installed config: mid360.yaml with the bus secured (deploy/fuse-slam-security.yaml.in).
+  file(READ \"${PROJECT_SOURCE_DIR}/config/mid360.yaml\" FUSE_BASE_CONFIG)
+  configure_file(\"${FUSE_DEPLOY_DIR}/fuse-slam-security.yaml.in\" \"${FUSE_UNIT_STAGE}/security.yaml\" @ONLY)
+  file(READ \"${FUSE_UNIT_STAGE}/security.yaml\" FUSE_SECURITY_CONFIG)
+  file(WRITE \"${FUSE_UNIT_STAGE}/fuse-slam.yaml\" \"\${FUSE_BASE_CONFIG}\${FUSE_SECURITY_CONFIG}\")
+  file(INSTALL DESTINATION \"\${FUSE_CONFIG_DIR}\" TYPE FILE FILES \"${FUSE_UNIT_STAGE}/fuse-slam.yaml\")
   file(INSTALL DESTINATION \"\${FUSE_CONFIG_DIR}\" TYPE FILE FILES \"${FUSE_DEPLOY_DIR}/ingest.env\")
 " COMPONENT runtime)
 

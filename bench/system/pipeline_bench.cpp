@@ -669,6 +669,10 @@ int main(int argc, char** argv) {
       co.socket_buffer_bytes = config.transport.socket_buffer_bytes;
       co.deadline_ms = o.query_deadline_ms;
       co.participant_name = "fuse-bench-pipeline-query";
+      co.system_name = config.transport.system_name;
+      co.security = config.transport.security.enabled;
+      co.security_keystore = config.transport.security.keystore;
+      co.security_private_key = config.transport.security.private_key;
       co.scheduler_slice_us = o.query_slice_us;
       client = std::make_unique<query::Client>(co);
       // The calling thread is the planner's: it asks for the same slice as the client's threads.

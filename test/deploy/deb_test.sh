@@ -26,7 +26,7 @@ cp -rL "$source_dir/debian" "$scratch/src/debian"
 version=$(dpkg-parsechangelog -l "$source_dir/debian/changelog" -S Version)
 arch=$(dpkg --print-architecture)
 deb() { echo "$scratch/${1}_${version}_${arch}.deb"; }
-for p in fuse-slam fuse-slam-tools libfuse-slam-query2 libfuse-slam-query-dev python3-fuse-slam; do
+for p in fuse-slam fuse-slam-tools libfuse-slam-query3 libfuse-slam-query-dev python3-fuse-slam; do
   [ -f "$(deb $p)" ] || { ls "$scratch"; fail "$(basename "$(deb $p)") was not built"; }
   echo "built $(basename "$(deb $p)") ($(du -k "$(deb $p)" | cut -f1) KiB)"
 done
@@ -39,13 +39,13 @@ echo "lintian: $(grep -c . "$scratch/lintian.log" || true) line(s), no error or 
 services_depends=$(dpkg-deb --field "$(deb fuse-slam)" Depends)
 echo "fuse-slam Depends: $services_depends"
 if echo "$services_depends" | grep -Eq "libpcl|libvtk"; then fail "fuse-slam depends on PCL or VTK"; fi
-for lib in libfastrtps libddsc libyaml-cpp libprotobuf libfuse-slam-query2; do
+for lib in libfastrtps libddsc libyaml-cpp libprotobuf libfuse-slam-query3; do
   echo "$services_depends" | grep -q "$lib" || fail "fuse-slam's Depends lacks $lib"
 done
 if dpkg-deb --field "$(deb fuse-slam-tools)" Depends | grep -Eq "libpcl|libvtk"; then fail "fuse-slam-tools depends on PCL or VTK"; fi
 python_depends=$(dpkg-deb --field "$(deb python3-fuse-slam)" Depends)
 echo "python3-fuse-slam Depends: $python_depends"
-for dep in "python3 (" libfuse-slam-query2; do
+for dep in "python3 (" libfuse-slam-query3; do
   echo "$python_depends" | grep -qF "$dep" || fail "python3-fuse-slam's Depends lacks $dep"
 done
 dpkg-deb --info "$(deb fuse-slam)" conffiles | sort | tr '\n' ' ' |
@@ -60,7 +60,7 @@ echo "no package pulls PCL or VTK; a man page for every binary"
 
 # ---- 3. apt resolves us beside Debian's fuse3 --------------------------------------------
 if apt-cache show fuse3 >/dev/null 2>&1; then
-  apt-get -s -q install "$(deb libfuse-slam-query2)" "$(deb fuse-slam)" "$(deb python3-fuse-slam)" \
+  apt-get -s -q install "$(deb libfuse-slam-query3)" "$(deb fuse-slam)" "$(deb python3-fuse-slam)" \
     "$(deb fuse-slam-tools)" "$(deb libfuse-slam-query-dev)" fuse3 >"$scratch/apt.log" 2>&1 ||
     { cat "$scratch/apt.log"; fail "apt-get -s install fuse-slam fuse3 does not resolve"; }
   echo "apt-get -s install of all five packages beside fuse3: resolves"
@@ -84,8 +84,10 @@ if [ "$(id -u)" -eq 0 ] && command -v systemd-sysusers >/dev/null 2>&1; then
 
   dpkgr() { dpkg --root="$root" --force-script-chrootless --force-depends --log=/dev/null "$@" >>"$scratch/dpkg.log" 2>&1 ||
               { cat "$scratch/dpkg.log"; fail "dpkg $*"; }; }
-  dpkgr -i "$(deb libfuse-slam-query2)" "$(deb fuse-slam)"
+  dpkgr -i "$(deb libfuse-slam-query3)" "$(deb fuse-slam)"
   grep -q "^_fuse-slam:" "$root/etc/passwd" || fail "the user _fuse-slam was not created"
+  [ -f "$root/etc/fuse-slam/keystore/identities/fuse-state/key.pem" ] || fail "the postinst made no DDS Security keystore"
+  [ "$(stat -c %a "$root/etc/fuse-slam/keystore/identities/fuse-state/key.pem")" = 600 ] || fail "a private key is readable by others"
   grep -q "edited on the vehicle" "$root/etc/fuse-slam/fuse-slam.yaml" || fail "the edited old config was not kept"
   [ -f "$root/etc/fuse-slam/fuse-slam.yaml.dpkg-dist" ] || fail "the packaged config was not kept as .dpkg-dist"
   grep -q "192.0.2.1" "$root/etc/fuse-slam/ingest.env" || fail "the old ingest.env was not kept"
@@ -117,7 +119,7 @@ fi
 
 # ---- 5. the unpacked services run -----------------------------------------------------------
 unpacked="$scratch/unpacked"
-for p in fuse-slam libfuse-slam-query2 python3-fuse-slam; do dpkg -x "$(deb $p)" "$unpacked"; done
+for p in fuse-slam libfuse-slam-query3 python3-fuse-slam; do dpkg -x "$(deb $p)" "$unpacked"; done
 run_service() {  # name, extra args...
   local name=$1; shift
   local sock="$scratch/$name.notify" log="$scratch/$name.log"
@@ -138,7 +140,7 @@ PY
   local listener=$!
   while [ ! -S "$sock" ]; do sleep 0.05; done
   NOTIFY_SOCKET="$sock" "$unpacked/usr/bin/$name" --config "$unpacked/etc/fuse-slam/fuse-slam.yaml" \
-    --domain "$domain" "$@" >"$log" 2>&1 &
+    --domain "$domain" --set transport.security.keystore="$scratch/keystore" "$@" >"$log" 2>&1 &
   local pid=$!
   local waited=0
   until grep -q "^READY=1" "$scratch/$name.notifications"; do
@@ -153,6 +155,10 @@ PY
   grep -q "^STOPPING=1" "$scratch/$name.notifications" || fail "$name: no STOPPING=1"
   echo "$name (unpacked): READY, SIGTERM, STOPPING, exit 0"
 }
+# The installed config secures the bus: a keystore made by the unpacked fuse-keystore.
+grep -q "^    enabled: true" "$unpacked/etc/fuse-slam/fuse-slam.yaml" || fail "the installed config does not enable DDS Security"
+"$unpacked/usr/bin/fuse-keystore" init "$scratch/keystore" >"$scratch/keystore.log" 2>&1 ||
+  { cat "$scratch/keystore.log"; fail "fuse-keystore init (unpacked)"; }
 run_service fuse-map --map-dir "$scratch/map"
 run_service fuse-state
 run_service fuse-update

@@ -21,7 +21,7 @@ for f in usr/lib/sysusers.d/fuse-slam.conf usr/lib/sysctl.d/60-fuse-slam-dds.con
 done
 # The units name the installed binaries and config, not the build tree.
 if grep -n "$build" "$units"/fuse-slam-*.service; then echo "FAILED: a unit names the build tree"; exit 1; fi
-grep -q '^ExecStart=/usr/bin/fuse-map --config /etc/fuse-slam/fuse-slam.yaml --map-dir /var/lib/fuse-slam/map --set map_server.spill_directory=/run/fuse-slam-map/spill$' "$units/fuse-slam-map.service" ||
+grep -q '^ExecStart=/usr/bin/fuse-map --config /etc/fuse-slam/fuse-slam.yaml --map-dir /var/lib/fuse-slam/map --set map_server.spill_directory=/run/fuse-slam-map/spill --set transport.security.private_key=%d/dds-key.pem$' "$units/fuse-slam-map.service" ||
   { echo "FAILED: fuse-slam-map.service ExecStart"; cat "$units/fuse-slam-map.service"; exit 1; }
 
 # Every unit fuse-slam.target wants is installed (verify does not report a missing one).

@@ -53,7 +53,7 @@ TEST_F(QueryInstall, InstallsAPackageAnOutsideProjectBuildsAgainst) {
   for (std::sregex_iterator it(text.begin(), text.end(), include_line), end; it != end; ++it) {
     EXPECT_TRUE(std::regex_match((*it)[1].str(), standard)) << "not a standard header: " << (*it)[1];
   }
-  EXPECT_FALSE(find("libfuse_slam_query.so.2").empty());
+  EXPECT_FALSE(find("libfuse_slam_query.so.3").empty());
   EXPECT_FALSE(find("fuse-slamConfig.cmake").empty());
   EXPECT_FALSE(find("fuse-slamConfigVersion.cmake").empty());
   EXPECT_TRUE(find("libfuse_transport.a").empty()) << "static libraries stay inside the .so";

@@ -323,6 +323,8 @@ class MultiProcess : public ::testing::Test {
 RunSummary* MultiProcess::single_ = nullptr;
 double MultiProcess::single_ate_ = 0.0;
 
+class SecuredLockstep : public MultiProcess, public ::testing::WithParamInterface<std::string> {};
+
 TEST_F(MultiProcess, LockstepReplayGivesTheSingleProcessTrajectory) {
   Pipeline p("lockstep", 60);
   const auto multi = lockstep_run(p);
@@ -340,6 +342,25 @@ TEST_F(MultiProcess, LockstepReplayOverCycloneDdsGivesTheSameTrajectory) {
   EXPECT_LE(max_difference(single_->trajectory, multi, &common), 1e-3);
   EXPECT_GE(common + 2, single_->trajectory.size());
 }
+
+// DDS Security on (a keystore made by fuse-keystore; each service joins as its own identity with
+// its own grant): the encrypted, access-controlled pipeline gives the same trajectory.
+TEST_P(SecuredLockstep, GivesTheUnsecuredTrajectory) {
+  const std::string keystore = std::string(FUSE_TEST_OUT) + "/keystore-" + GetParam();
+  fs::remove_all(keystore);
+  ASSERT_EQ(std::system((kBin + "/fuse-keystore init " + keystore + " >/dev/null").c_str()), 0);
+  Pipeline p("lockstep-secured-" + GetParam(), GetParam() == "fastdds" ? 74 : 75,
+             {"--set", "transport.vendor=" + GetParam(), "--set", "transport.security.enabled=true", "--set",
+              "transport.security.keystore=" + keystore});
+  const auto multi = lockstep_run(p);
+  std::size_t common = 0;
+  const double worst = max_difference(single_->trajectory, multi, &common);
+  EXPECT_LE(worst, 1e-3) << "largest position difference to fuse-run";
+  EXPECT_GE(common + 2, single_->trajectory.size());
+  RecordProperty("max_difference_m", std::to_string(worst));
+}
+INSTANTIATE_TEST_SUITE_P(Vendors, SecuredLockstep, ::testing::Values("fastdds", "cyclonedds"),
+                         [](const ::testing::TestParamInfo<std::string>& i) { return i.param; });
 
 TEST_F(MultiProcess, ServicesOnDifferentVendorsWorkTogether) {
   // fuse-map and fuse-state on Cyclone DDS, fuse-update and fuse-ingest on Fast DDS.

@@ -79,7 +79,7 @@ int main(int argc, char** argv) {
     }
     return kExitErrorReply;
   } catch (const std::exception& e) {
-    std::cerr << "fuse-map-ctl: transport: " << e.what() << "\n";
+    std::cerr << "fuse-map-ctl: " << e.what() << "\n";
     return kExitUnavailable;
   }
 }

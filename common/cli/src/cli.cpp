@@ -18,13 +18,24 @@ std::unique_ptr<CLI::App> make_app(const std::string& name, const std::string& d
   return app;
 }
 
+namespace {
+/// `name` is an option of the app or of one of its subcommands (at any depth).
+bool knows_option(const CLI::App& app, const std::string& name) {
+  if (app.get_option_no_throw(name) != nullptr) return true;
+  for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; })) {
+    if (knows_option(*sub, name)) return true;
+  }
+  return false;
+}
+}  // namespace
+
 std::optional<int> parse(CLI::App& app, int argc, char** argv) {
   // An unknown flag is named first, before a missing required option hides it.
   for (int i = 1; i < argc; ++i) {
     const std::string token = argv[i];
     if (token.size() <= 2 || token.rfind("--", 0) != 0) continue;
     const std::string name = token.substr(0, token.find('='));
-    if (app.get_option_no_throw(name) == nullptr) return usage_error(app, "unknown option " + name);
+    if (!knows_option(app, name)) return usage_error(app, "unknown option " + name);
   }
   try {
     app.parse(argc, argv);

@@ -16,6 +16,7 @@ void TransportConfig::load(ConfigNode& node) {
   node.check(socket_buffer_bytes >= (64u << 10) && socket_buffer_bytes <= (256u << 20), "socket_buffer_bytes",
              "must be in [64 KiB, 256 MiB]");
   node.check(system_name.size() <= 64 && has_only_plain_name_chars(system_name), "system_name", "must be at most 64 letters, digits, '_', '-' or '.' (empty: the default partition)");
+  load_section(node, "security", security);
   node.finish();
 }
 

@@ -381,18 +381,50 @@ QosPtr endpoint_qos(const TopicQos& qos, bool writer) {
   return q;
 }
 
+/// DDS Security with the builtin plugins (Debian's libddsc finds dds_security_auth, _ac and
+/// _crypto in its private library directory): PKI-DH, access control, AES-GCM-GMAC.
+void add_security_properties(dds_qos_t* q, const SecurityFiles& f) {
+  dds_qset_prop(q, "dds.sec.auth.library.path", "dds_security_auth");
+  dds_qset_prop(q, "dds.sec.auth.library.init", "init_authentication");
+  dds_qset_prop(q, "dds.sec.auth.library.finalize", "finalize_authentication");
+  dds_qset_prop(q, "dds.sec.crypto.library.path", "dds_security_crypto");
+  dds_qset_prop(q, "dds.sec.crypto.library.init", "init_crypto");
+  dds_qset_prop(q, "dds.sec.crypto.library.finalize", "finalize_crypto");
+  dds_qset_prop(q, "dds.sec.access.library.path", "dds_security_ac");
+  dds_qset_prop(q, "dds.sec.access.library.init", "init_access_control");
+  dds_qset_prop(q, "dds.sec.access.library.finalize", "finalize_access_control");
+  dds_qset_prop(q, "dds.sec.auth.identity_ca", ("file:" + f.identity_ca).c_str());
+  dds_qset_prop(q, "dds.sec.auth.identity_certificate", ("file:" + f.certificate).c_str());
+  dds_qset_prop(q, "dds.sec.auth.private_key", ("file:" + f.private_key).c_str());
+  dds_qset_prop(q, "dds.sec.access.permissions_ca", ("file:" + f.permissions_ca).c_str());
+  dds_qset_prop(q, "dds.sec.access.governance", ("file:" + f.governance).c_str());
+  dds_qset_prop(q, "dds.sec.access.permissions", ("file:" + f.permissions).c_str());
+}
+
 /// The DDS participant and its topics; shared by the Participant and its writers/readers.
 class Context {
  public:
-  Context(const TransportConfig& config, const std::string& name) : domain_id_(config.domain_id) {
+  Context(const TransportConfig& config, const std::string& name)
+      : domain_id_(config.domain_id), identity_(config.security.enabled ? security_identity(config.security, name) : "") {
     Domains::instance().acquire(config);
     QosPtr q(dds_create_qos());
     dds_qset_entity_name(q.get(), name.c_str());
+    if (config.security.enabled) {
+      try {
+        add_security_properties(q.get(), security_files(config.security, name));
+      } catch (...) {
+        Domains::instance().release(domain_id_);
+        throw;
+      }
+    }
     participant_ = dds_create_participant(static_cast<dds_domainid_t>(domain_id_), q.get(), nullptr);
     if (participant_ < 0) {
       Domains::instance().release(domain_id_);
       throw std::runtime_error("transport: Cyclone DDS could not create a participant on domain " +
-                               std::to_string(domain_id_) + ": " + error_text(participant_));
+                               std::to_string(domain_id_) + ": " + error_text(participant_) +
+                               (config.security.enabled ? " (security on: a certificate, key or signed document was "
+                                                          "refused; see the log above)"
+                                                        : ""));
     }
     // transport.system_name: one publisher and one subscriber in that partition, parents of every
     // writer and reader, so that two systems on one domain never match (empty: the default one).
@@ -413,6 +445,8 @@ class Context {
   }
 
   dds_entity_t participant() const { return participant_; }
+  /// Why an endpoint may have been refused: the grant of this process's security identity.
+  std::string refusal_hint(const std::string& what) const { return security_refusal_hint(identity_, what); }
   dds_entity_t publisher() const { return publisher_; }
   dds_entity_t subscriber() const { return subscriber_; }
 
@@ -437,7 +471,7 @@ class Context {
     if (t < 0) {
       st_free(&st->c);
       throw std::runtime_error("transport: Cyclone DDS could not create topic '" + name + "' of type " + type.name +
-                               ": " + error_text(t));
+                               ": " + error_text(t) + refusal_hint("use"));
     }
     topics_[name] = TopicEntry{t, type.name};
     return t;
@@ -449,6 +483,7 @@ class Context {
     std::string type;
   };
   int domain_id_;
+  std::string identity_;  ///< the security identity (empty: security off)
   dds_entity_t participant_ = 0;
   dds_entity_t publisher_ = 0, subscriber_ = 0;  // deleted with the participant
   std::mutex mutex_;
@@ -464,7 +499,7 @@ class CycloneWriter : public RawWriter {
     writer_ = dds_create_writer(context_->publisher(), t, endpoint_qos(qos, true).get(), nullptr);
     if (writer_ < 0) {
       throw std::runtime_error("transport: Cyclone DDS could not create a writer on '" + topic +
-                               "': " + error_text(writer_));
+                               "': " + error_text(writer_) + context_->refusal_hint("publish"));
     }
   }
   ~CycloneWriter() override { dds_delete(writer_); }
@@ -508,7 +543,7 @@ class CycloneReader : public RawReader {
     dds_delete_listener(listener);
     if (reader_ < 0) {
       throw std::runtime_error("transport: Cyclone DDS could not create a reader on '" + topic +
-                               "': " + error_text(reader_));
+                               "': " + error_text(reader_) + context_->refusal_hint("subscribe to"));
     }
   }
   ~CycloneReader() override {

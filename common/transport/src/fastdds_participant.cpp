@@ -118,11 +118,28 @@ class OpaqueType : public dds::TopicDataType {
   }
 };
 
+/// DDS Security with the builtin plugins: PKI-DH authentication, access control by the signed
+/// governance and permissions, AES-GCM-GMAC cryptography (what governance asks for: ENCRYPT).
+void add_security_properties(dds::DomainParticipantQos& pqos, const SecurityFiles& f) {
+  auto& props = pqos.properties().properties();
+  const auto add = [&props](const std::string& key, const std::string& value) { props.emplace_back(key, value); };
+  add("dds.sec.auth.plugin", "builtin.PKI-DH");
+  add("dds.sec.auth.builtin.PKI-DH.identity_ca", "file://" + f.identity_ca);
+  add("dds.sec.auth.builtin.PKI-DH.identity_certificate", "file://" + f.certificate);
+  add("dds.sec.auth.builtin.PKI-DH.private_key", "file://" + f.private_key);
+  add("dds.sec.access.plugin", "builtin.Access-Permissions");
+  add("dds.sec.access.builtin.Access-Permissions.permissions_ca", "file://" + f.permissions_ca);
+  add("dds.sec.access.builtin.Access-Permissions.governance", "file://" + f.governance);
+  add("dds.sec.access.builtin.Access-Permissions.permissions", "file://" + f.permissions);
+  add("dds.sec.crypto.plugin", "builtin.AES-GCM-GMAC");
+}
+
 /// The DDS participant with its one publisher and subscriber, and the topics in use. Shared by
 /// the Participant and every writer/reader it made, so their destruction order does not matter.
 class Context {
  public:
-  Context(const TransportConfig& config, const std::string& name) {
+  Context(const TransportConfig& config, const std::string& name)
+      : identity_(config.security.enabled ? security_identity(config.security, name) : "") {
     if (config.shared_memory) {
       // Remove segments left in /dev/shm by crashed processes; absent tool or failure is fine.
       if (std::system("fastdds shm clean >/dev/null 2>&1") != 0) {
@@ -153,11 +170,16 @@ class Context {
     discovery.leaseDuration_announcementperiod = eprosima::fastrtps::Duration_t(0, 500000000);
     discovery.leaseDuration = eprosima::fastrtps::Duration_t(5, 0);
 
+    if (config.security.enabled) add_security_properties(pqos, security_files(config.security, name));
+
     auto* factory = dds::DomainParticipantFactory::get_instance();
     participant_ = factory->create_participant(config.domain_id, pqos);
     if (participant_ == nullptr) {
       throw std::runtime_error("transport: Fast DDS could not create a participant on domain " +
-                               std::to_string(config.domain_id));
+                               std::to_string(config.domain_id) +
+                               (config.security.enabled ? " (security on: a certificate, key or signed document was refused; "
+                                                          "see the log above)"
+                                                        : ""));
     }
     // transport.system_name: every endpoint in that partition only, so that two systems on one
     // domain never match each other's topics (empty: the default partition).
@@ -182,6 +204,8 @@ class Context {
   }
 
   dds::Publisher* publisher() const { return publisher_; }
+  /// Why an endpoint may have been refused: the grant of this process's security identity.
+  std::string refusal_hint(const std::string& what) const { return security_refusal_hint(identity_, what); }
   dds::Subscriber* subscriber() const { return subscriber_; }
 
   /// The topic (created on first use, with its type registered); release_topic() when done.
@@ -203,7 +227,7 @@ class Context {
       }
     }
     dds::Topic* t = participant_->create_topic(topic, type.name, dds::TOPIC_QOS_DEFAULT);
-    if (t == nullptr) throw std::runtime_error("transport: Fast DDS could not create topic '" + topic + "'");
+    if (t == nullptr) throw std::runtime_error("transport: Fast DDS could not create topic '" + topic + "'" + refusal_hint("use"));
     topics_[topic] = TopicUse{t, 1};
     return t;
   }
@@ -221,6 +245,7 @@ class Context {
     dds::Topic* topic;
     int users;
   };
+  std::string identity_;  ///< the security identity (empty: security off)
   dds::DomainParticipant* participant_ = nullptr;
   dds::Publisher* publisher_ = nullptr;
   dds::Subscriber* subscriber_ = nullptr;
@@ -266,7 +291,8 @@ class FastddsWriter : public RawWriter {
     writer_ = context_->publisher()->create_datawriter(t, q);
     if (writer_ == nullptr) {
       context_->release_topic(topic);
-      throw std::runtime_error("transport: Fast DDS could not create a writer on '" + topic + "'");
+      throw std::runtime_error("transport: Fast DDS could not create a writer on '" + topic + "'" +
+                               context_->refusal_hint("publish"));
     }
   }
   ~FastddsWriter() override {
@@ -321,7 +347,8 @@ class FastddsReader : public RawReader, public dds::DataReaderListener {
     reader_ = context_->subscriber()->create_datareader(t, q, this, dds::StatusMask::data_available());
     if (reader_ == nullptr) {
       context_->release_topic(topic);
-      throw std::runtime_error("transport: Fast DDS could not create a reader on '" + topic + "'");
+      throw std::runtime_error("transport: Fast DDS could not create a reader on '" + topic + "'" +
+                               context_->refusal_hint("subscribe to"));
     }
   }
   ~FastddsReader() override {

@@ -58,6 +58,11 @@ query::ClientOptions load_client_options(const std::string& file, const std::vec
   options.max_participants = t.max_participants;
   options.shared_memory = t.shared_memory;
   options.socket_buffer_bytes = t.socket_buffer_bytes;
+  options.system_name = t.system_name;
+  options.security = t.security.enabled;
+  options.security_keystore = t.security.keystore;
+  options.security_identity = t.security.identity;
+  options.security_private_key = t.security.private_key;
   return options;
 }
 

@@ -102,7 +102,12 @@ PYBIND11_MODULE(fuse_slam, m) {
       .def_readwrite("shared_memory", &ClientOptions::shared_memory)
       .def_readwrite("socket_buffer_bytes", &ClientOptions::socket_buffer_bytes)
       .def_readwrite("participant_name", &ClientOptions::participant_name)
-      .def_readwrite("scheduler_slice_us", &ClientOptions::scheduler_slice_us);
+      .def_readwrite("scheduler_slice_us", &ClientOptions::scheduler_slice_us)
+      .def_readwrite("system_name", &ClientOptions::system_name)
+      .def_readwrite("security", &ClientOptions::security)
+      .def_readwrite("security_keystore", &ClientOptions::security_keystore)
+      .def_readwrite("security_identity", &ClientOptions::security_identity)
+      .def_readwrite("security_private_key", &ClientOptions::security_private_key);
 
   py::class_<HostClock>(m, "HostClock", "Host clock minus sensor clock: t_host = t + offset.")
       .def_readonly("known", &HostClock::known)

@@ -53,6 +53,11 @@ transport::TransportConfig transport_config(const ClientOptions& o) {
   c.max_participants = o.max_participants;
   c.shared_memory = o.shared_memory;
   c.socket_buffer_bytes = o.socket_buffer_bytes;
+  c.system_name = o.system_name;
+  c.security.enabled = o.security;
+  c.security.keystore = o.security_keystore;
+  c.security.identity = o.security_identity;
+  c.security.private_key = o.security_private_key;
   return c;
 }
 

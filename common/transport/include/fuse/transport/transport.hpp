@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "fuse/core/config.hpp"
+#include "fuse/transport/security.hpp"
 
 namespace fuse::transport {
 
@@ -31,6 +32,7 @@ struct TransportConfig {
   /// recordings and their replay) stay the same. Empty: the default partition. 1–64 letters,
   /// digits, '_', '-', '.' (no partition wildcards).
   std::string system_name;
+  SecurityConfig security;  ///< DDS Security (security.hpp); off by default
   void load(ConfigNode& node);
 };
 

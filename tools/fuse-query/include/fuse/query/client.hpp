@@ -49,6 +49,15 @@ struct ClientOptions {
   /// up to the default slice (1.4 ms on two CPUs). Needs Linux 6.12 or later (EEVDF); ignored
   /// by older kernels. The caller's own threads are left as they are.
   int scheduler_slice_us = 100;
+  /// transport.system_name of the system to ask: its DDS partition (empty: the default one).
+  std::string system_name;
+  /// DDS Security (transport.security): join the secured bus as `security_identity` (empty:
+  /// participant_name) with its certificate and grant from the keystore made by fuse-keystore;
+  /// the planner role may call query and read odometry.
+  bool security = false;
+  std::string security_keystore;
+  std::string security_identity;
+  std::string security_private_key;  ///< empty: <keystore>/identities/<identity>/key.pem
 };
 
 /// Only `ok` means: a pose to steer by (the estimator tracks, t lies in its history, the
