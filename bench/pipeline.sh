@@ -67,7 +67,6 @@ next_domain() { DOMAIN=$((90 + DOMAIN_SLOT % 10)); DOMAIN_SLOT=$((DOMAIN_SLOT + 
 COMMON=(--config "$CONFIG" --set "transport.vendor=$VENDOR")
 SET_ARGS=()
 for kv in ${SETS:-}; do SET_ARGS+=(--set "$kv"); done
-COMMON+=("${SET_ARGS[@]}")
 # SECURE=1: DDS Security on, with a keystore of its own (the bench's two participants join as a
 # recorder and a planner).
 if [ "${SECURE:-0}" = 1 ]; then
@@ -76,8 +75,9 @@ if [ "${SECURE:-0}" = 1 ]; then
   "$BIN/fuse-keystore" init "$KEYSTORE"
   "$BIN/fuse-keystore" add-identity "$KEYSTORE" fuse-bench-pipeline --role recorder
   "$BIN/fuse-keystore" add-identity "$KEYSTORE" fuse-bench-pipeline-query --role planner
-  COMMON+=(--set transport.security.enabled=true --set "transport.security.keystore=$KEYSTORE")
+  SET_ARGS+=(--set transport.security.enabled=true --set "transport.security.keystore=$KEYSTORE")
 fi
+COMMON+=("${SET_ARGS[@]}")
 
 echo "date: $(date -u +%Y-%m-%dT%H:%M:%SZ)"
 echo "load_before: $(cut -d' ' -f1-3 /proc/loadavg)"

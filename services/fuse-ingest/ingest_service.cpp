@@ -44,7 +44,7 @@ IngestService::IngestService(const SystemConfig& config, transport::Participant&
         std::lock_guard<std::mutex> lock(mutex_);
         service_states_[h.service().to_string()] = h.state().to_string();
       });
-  health_ = std::make_unique<HealthReporter>(participant, kName, config.health.period_s, [this] { return health(); });
+  health_ = std::make_unique<HealthReporter>(participant, kName, config.health.period_s, config.health.instance_window_s, [this] { return health(); });
   if (options_.input.live()) {
     logger(kName)->info("publishing {} live, as it arrives", source_->describe());
   } else {

@@ -107,7 +107,12 @@ StateService::StateService(const SystemConfig& config, transport::Participant& p
       participant, transport::services::kHistory,
       [this](const fuse_msgs::HistoryRequest& req, fuse_msgs::HistoryReply& rep) { on_history(req, rep); },
       transport::Dispatch::kInline);
-  health_ = std::make_unique<HealthReporter>(participant, kName, config.health.period_s, [this] { return health(); });
+  health_ = std::make_unique<HealthReporter>(participant, kName, config.health.period_s, config.health.instance_window_s, [this] { return health(); });
+  instances_ = health_.get();
+}
+
+StateService::~StateService() {
+  imu_sub_.reset();  // no IMU callback runs once health_ (declared after it) goes
 }
 
 void StateService::run() {
@@ -142,8 +147,17 @@ void StateService::malformed(const std::string& topic, const std::string& why) {
 
 void StateService::on_imu(const fuse_msgs::ImuSample& msg) {
   std::optional<fuse_msgs::StateEstimate> odometry;
+  // Two fuse-ingest alive under this system name (another system on the domain with the same
+  // name, or one started twice): their IMU streams are not mixed; none is used until one is left.
+  const HealthReporter* instances = instances_.load();
+  const std::string twice = instances != nullptr ? instances->duplicate("fuse-ingest") : std::string();
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    if (!twice.empty()) {
+      counters_.count("imu_refused_two_ingests", "IMU sample refused: " + twice);
+      last_error_ = twice;
+      return;
+    }
     ImuSample imu;
     try {
       imu = from_msg(msg);

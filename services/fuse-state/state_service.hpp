@@ -24,6 +24,7 @@
 // state.lost_after_s of IMU).
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <deque>
 #include <fstream>
@@ -48,6 +49,7 @@ const char* to_string(Tracking tracking);
 class StateService {
  public:
   StateService(const SystemConfig& config, transport::Participant& participant, const std::string& trajectory_file);
+  ~StateService();
   /// Runs until a stop is requested.
   void run();
 
@@ -113,6 +115,8 @@ class StateService {
   std::unique_ptr<transport::RpcServer<fuse_msgs::QueryRequest, fuse_msgs::QueryReply>> query_server_;
   std::unique_ptr<transport::RpcServer<fuse_msgs::HistoryRequest, fuse_msgs::HistoryReply>> history_server_;
   std::unique_ptr<HealthReporter> health_;
+  /// health_ once made (IMU samples may arrive before): it tells whether two fuse-ingest are alive.
+  std::atomic<const HealthReporter*> instances_{nullptr};
 };
 
 }  // namespace fuse::service

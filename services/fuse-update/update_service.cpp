@@ -51,7 +51,7 @@ UpdateService::UpdateService(const SystemConfig& config, transport::Participant&
   // generated type's decoding for ~20k points, on the scan's way to the update.
   scan_sub_ = std::make_unique<transport::RawSubscriber<fuse_msgs::LidarScan>>(
       participant, transport::topics::kLidarScan, [this](const std::uint8_t* data, std::size_t size) { on_scan(data, size); });
-  health_ = std::make_unique<HealthReporter>(participant, kName, config.health.period_s, [this] { return health(); });
+  health_ = std::make_unique<HealthReporter>(participant, kName, config.health.period_s, config.health.instance_window_s, [this] { return health(); });
   logger(kName)->info("session {:016x}", session_);
 }
 

@@ -105,6 +105,18 @@ class Pipeline {
   }
 
   void start(const std::string& service, const std::string& input = kData, const std::vector<std::string>& more = {}) {
+    const std::vector<std::string> argv = argv_for(service, input, more);
+    const int n = ++starts_[service];
+    procs_.erase(service);
+    procs_.emplace(service, Process::spawn(argv, dir_ + "/logs/" + service + "-" + std::to_string(n) + ".log"));
+  }
+  /// Another instance of `service` beside the one start() made (the caller owns it; logs/TAG.log).
+  Process start_another(const std::string& service, const std::string& input, const std::vector<std::string>& more,
+                        const std::string& tag) {
+    return Process::spawn(argv_for(service, input, more), dir_ + "/logs/" + tag + ".log");
+  }
+  std::vector<std::string> argv_for(const std::string& service, const std::string& input,
+                                    const std::vector<std::string>& more) const {
     std::vector<std::string> argv{kBin + "/" + service};
     argv.insert(argv.end(), common_.begin(), common_.end());
     if (service == "fuse-map") argv.insert(argv.end(), {"--map-dir", dir_ + "/map"});
@@ -116,9 +128,7 @@ class Pipeline {
     }
     if (service == "fuse-ingest") argv.insert(argv.end(), {"--input", source});
     argv.insert(argv.end(), more.begin(), more.end());
-    const int n = ++starts_[service];
-    procs_.erase(service);
-    procs_.emplace(service, Process::spawn(argv, dir_ + "/logs/" + service + "-" + std::to_string(n) + ".log"));
+    return argv;
   }
   void start_backend() {
     start("fuse-map");
@@ -361,6 +371,79 @@ TEST_P(SecuredLockstep, GivesTheUnsecuredTrajectory) {
 }
 INSTANTIATE_TEST_SUITE_P(Vendors, SecuredLockstep, ::testing::Values("fastdds", "cyclonedds"),
                          [](const ::testing::TestParamInfo<std::string>& i) { return i.param; });
+
+// Two systems started on one DDS domain (issue 16), as two vehicles' recordings replayed side
+// by side: with their own transport.system_name each tracks its own sensor; with the same name
+// both fuse-launch fail and say why instead of mixing the two.
+class TwoSystems : public MultiProcess {
+ protected:
+  struct Launch {
+    launch::Process process;
+    std::string out;
+  };
+  static Launch start_launch(const std::string& data, const std::string& name, int domain, const std::string& system) {
+    const std::string out = std::string(FUSE_TEST_OUT) + "/two-systems-" + name;
+    fs::remove_all(out);
+    fs::create_directories(out);
+    return {launch::Process::spawn({kBin + "/fuse-launch", "--config", kConfig, "--input", data + "/recording.mcap",
+                                    "--mode", "lockstep", "--out", out, "--domain", std::to_string(domain), "--system",
+                                    system, "--bin-dir", kBin, "--set", "health.period_s=0.2"},
+                                   out + "/fuse-launch.log"),
+            out};
+  }
+  static int exit_code(Launch& l) {
+    const auto status = l.process.wait_for(kReplayTimeout);
+    return status && !status->signaled ? status->code : -1;
+  }
+};
+
+TEST_F(TwoSystems, WithTheirOwnNamesEachTracksItsOwnSensor) {
+  const std::string other = std::string(FUSE_TEST_DATA) + "/corridor60_b";  // another drive through the same world
+  Launch a = start_launch(kData, "a", 76, "vehicle-a");
+  Launch b = start_launch(other, "b", 76, "vehicle-b");
+  EXPECT_EQ(exit_code(a), 0) << read_file(a.out + "/fuse-launch.log");
+  EXPECT_EQ(exit_code(b), 0) << read_file(b.out + "/fuse-launch.log");
+  const auto ta = eval::read_tum(a.out + "/trajectory.tum"), tb = eval::read_tum(b.out + "/trajectory.tum");
+  std::size_t common = 0;
+  EXPECT_LE(max_difference(single_->trajectory, ta, &common), 1e-3) << "system A is not what fuse-run gives alone";
+  EXPECT_GE(common + 2, single_->trajectory.size());
+  const RunSummary single_b = run_offline(load_runner_config(kConfig), other + "/recording.mcap", "");
+  EXPECT_LE(max_difference(single_b.trajectory, tb, &common), 1e-3) << "system B is not what fuse-run gives alone";
+  EXPECT_GE(common + 2, single_b.trajectory.size());
+  std::cout << "two systems on domain 76: ATE " << ate(kData, ta) << " m and " << ate(other, tb) << " m\n";
+}
+
+TEST_F(TwoSystems, WithTheSameNameBothFailAndSayWhy) {
+  const std::string other = std::string(FUSE_TEST_DATA) + "/corridor60_b";
+  Launch a = start_launch(kData, "same-a", 77, "vehicle");
+  Launch b = start_launch(other, "same-b", 77, "vehicle");
+  for (Launch* l : {&a, &b}) {
+    EXPECT_EQ(exit_code(*l), 1);
+    const std::string log = read_file(l->out + "/fuse-launch.log");
+    EXPECT_NE(log.find("are alive at the same time"), std::string::npos) << log;
+    EXPECT_NE(log.find("FAILED: "), std::string::npos) << log;
+  }
+}
+
+// Two fuse-ingest under one system name (started twice by mistake): both say so on health and
+// fuse-state uses the IMU samples of neither rather than a mix of the two streams.
+TEST_F(MultiProcess, TwoIngestsAreReportedAndTheirImuIsNotMixed) {
+  Pipeline p("two-ingests", 78);
+  p.start_backend();
+  p.start("fuse-ingest", kData, {"--mode", "realtime"});
+  Process second = p.start_another("fuse-ingest", kData, {"--mode", "realtime"}, "fuse-ingest-second");
+  const auto until = std::chrono::steady_clock::now() + 90s;
+  const auto seen = [&] {
+    return p.log("fuse-state", 1).find("imu_refused_two_ingests") != std::string::npos &&
+           read_file(p.dir() + "/logs/fuse-ingest-second.log").find("alive at the same time") != std::string::npos;
+  };
+  while (!seen() && std::chrono::steady_clock::now() < until) std::this_thread::sleep_for(100ms);
+  EXPECT_TRUE(seen()) << p.diagnose();
+  EXPECT_NE(p.log("fuse-ingest", 1).find("fuse-ingest instances"), std::string::npos) << p.log("fuse-ingest", 1);
+  second.terminate(5s);
+  p.kill("fuse-ingest");
+  EXPECT_TRUE(p.stop_all());
+}
 
 TEST_F(MultiProcess, ServicesOnDifferentVendorsWorkTogether) {
   // fuse-map and fuse-state on Cyclone DDS, fuse-update and fuse-ingest on Fast DDS.

@@ -1,20 +1,36 @@
 #include "fuse/service/health.hpp"
 
+#include "fuse/core/logging.hpp"
 #include "fuse/transport/rpc.hpp"
 
 namespace fuse::service {
 
 HealthReporter::HealthReporter(transport::Participant& participant, std::string service, double period_s,
-                               std::function<HealthSnapshot()> snapshot)
+                               double instance_window_s, std::function<HealthSnapshot()> snapshot)
     : service_(std::move(service)),
       instance_(transport::random_id()),
       start_(std::chrono::steady_clock::now()),
       period_(period_s),
       snapshot_(std::move(snapshot)),
       publisher_(participant, transport::topics::kHealth),
+      watch_(instance_window_s),
+      subscriber_(std::make_unique<transport::Subscriber<fuse_msgs::Health>>(
+          participant, transport::topics::kHealth, [this](const fuse_msgs::Health& h) { on_health(h); })),
       thread_([this] { run(); }) {}
 
+void HealthReporter::on_health(const fuse_msgs::Health& h) {
+  std::lock_guard<std::mutex> lock(watch_mutex_);
+  watch_.heard(h.service().to_string(), h.instance(), InstanceWatch::Clock::now());
+}
+
+std::string HealthReporter::duplicate(const std::string& service) const {
+  std::lock_guard<std::mutex> lock(watch_mutex_);
+  const auto ids = watch_.concurrent(service, InstanceWatch::Clock::now());
+  return ids.empty() ? "" : describe_duplicate(service, ids);
+}
+
 HealthReporter::~HealthReporter() {
+  subscriber_.reset();
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stop_ = true;
@@ -24,7 +40,21 @@ HealthReporter::~HealthReporter() {
 }
 
 void HealthReporter::publish_now() {
-  const HealthSnapshot s = snapshot_();
+  HealthSnapshot s = snapshot_();
+  const std::string twice = duplicate(service_);
+  if (!twice.empty()) {
+    if (s.state != "stopping") s.state = "degraded";
+    s.counters["duplicate_instances"] = 1;
+    s.last_error = twice;
+  }
+  const bool duplicated = !twice.empty();
+  if (reported_duplicate_.exchange(duplicated) != duplicated) {
+    if (duplicated) {
+      logger(service_)->error("{}", twice);
+    } else {
+      logger(service_)->info("only this instance of {} is alive again", service_);
+    }
+  }
   fuse_msgs::Health m;
   m.service(service_.substr(0, 32));
   m.instance(instance_);

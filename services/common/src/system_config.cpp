@@ -86,8 +86,10 @@ void SchedulingConfig::load(ConfigNode& node) {
 }
 
 void HealthConfig::load(ConfigNode& node) {
-  node.get("period_s", period_s);
+  node.get("period_s", period_s).get("instance_window_s", instance_window_s);
   node.check(period_s >= 0.05 && period_s <= 60.0, "period_s", "must be in [0.05, 60] s");
+  node.check(std::isfinite(instance_window_s) && instance_window_s >= 2.5 * period_s && instance_window_s <= 600.0,
+             "instance_window_s", "must be at least 2.5 health periods (period_s) and at most 600 s");
   node.finish();
 }
 

@@ -41,7 +41,8 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
       "the others (the last started first; SIGKILL after --stop-timeout-ms). Watches the bus and ends with a "
       "summary of restarts, data gaps, counters and what was lost.",
       "Exit codes: 0 every service did its part and nothing was lost, 1 a service failed (its last error line is "
-      "printed), 2 usage or config, 3 the run lost something (named in the summary).");
+      "printed) or another instance of a service runs under the same system name on this domain, 2 usage or "
+      "config, 3 the run lost something (named in the summary).");
   std::string rate, domain, max_restarts, stop_timeout, settle;
   app->add_option("--config", o.config_file, "the system config, passed to every service")->type_name("FILE")->required();
   app->add_option("--input", o.input, "the recording or sequence directory fuse-ingest replays")
@@ -57,6 +58,10 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
   app->add_option("--vendor", o.vendor, "DDS implementation, passed to every service")
       ->type_name("fastdds|cyclonedds")
       ->check(CLI::IsMember({"fastdds", "cyclonedds"}));
+  std::optional<std::string> system;
+  app->add_option("--system", system,
+                  "the system's name, its DDS partition, passed to every service: --set transport.system_name=NAME")
+      ->type_name("NAME");
   app->add_option("--set", o.overrides, "a config override for every service (repeatable)")
       ->type_name("KEY=VALUE")
       ->expected(1)
@@ -84,6 +89,8 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
     for (const std::string& set : o.overrides) {
       if (set.find('=') == std::string::npos) throw ArgumentError("--set: '" + set + "' is not key=value");
     }
+    // First, so that a --set of the same key wins (as with the other tools); quoted: a string.
+    if (system) o.overrides.insert(o.overrides.begin(), "transport.system_name=\"" + *system + "\"");
   } catch (const ArgumentError& e) {
     return cli::usage_error(*app, e.what());
   }

@@ -2,14 +2,16 @@
 //
 //   fuse-launch --config FILE --input PATH [--mode lockstep|realtime] [--rate R] [--out DIR]
 //               [--map-dir DIR] [--domain N] [--vendor fastdds|cyclonedds] [--set key=value]...
-//               [--bin-dir DIR] [--restart]
+//               [--system NAME] [--bin-dir DIR] [--restart]
 //
 // Starts fuse-map, fuse-state and fuse-update, then fuse-ingest; when the replay is done it stops
 // the others in reverse order. SIGINT/SIGTERM stop everything the same way. Meanwhile it watches
 // the bus (RunMonitor), logs a progress line every 5 s while the replay runs, and prints a summary
 // of restarts, gaps, counters and anything lost.
 // Exit codes: 0 every service did its part and nothing was lost (data gaps are not losses),
-// 1 a service failed, 2 usage or config, 3 the run lost something (named in the summary).
+// 1 a service failed, or another instance of a service runs on this domain under the same
+// system name (another system with the same transport.system_name), 2 usage or config, 3 the run
+// lost something (named in the summary).
 #include <csignal>
 #include <cstdint>
 #include <filesystem>
@@ -89,16 +91,25 @@ int main(int argc, char** argv) {
   logger("launch")->info("{}", launch::describe_replay_size(total_events));
   install_signal_handlers();
   launch::LaunchOutcome outcome;
+  std::string conflict;
   try {
     launch::SupervisorOptions options;
     options.log_dir = plan.log_dir;
     options.max_restarts = args.max_restarts;
     launch::ProcessSupervisor supervisor(options);
     launch_tool::RunMonitor monitor(config, plan.trajectory_file, plan.map_dir, total_events);
-    outcome = launch::run_launch(plan, supervisor, args.timing, [] { return g_stop != 0; }, [&monitor] { monitor.poll(); });
+    outcome = launch::run_launch(
+        plan, supervisor, args.timing, [&monitor] { return g_stop != 0 || !monitor.conflict().empty(); },
+        [&monitor] { monitor.poll(); });
     const launch_tool::RunMonitor::Verdict verdict = monitor.finish(outcome.reports);
     outcome.losses = verdict.losses;
     std::cout << verdict.summary;
+    conflict = monitor.conflict();
+    if (!conflict.empty()) {
+      outcome.success = false;
+      outcome.failure = conflict;
+      outcome.interrupted = false;  // stopped because of it, not by a signal
+    }
   } catch (const std::exception& e) {  // e.g. the log directory cannot be created
     logger("launch")->error("{}", e.what());
     return kExitFailed;

@@ -46,6 +46,7 @@ RunMonitor::RunMonitor(const service::SystemConfig& config, std::string trajecto
       trajectory_file_(std::move(trajectory_file)),
       map_dir_(std::move(map_dir)),
       health_period_s_(config.health.period_s),
+      watch_(config.health.instance_window_s),
       replay_events_(replay_events) {
   participant_ = transport::make_participant(config.transport, "fuse-launch");
   health_ = std::make_unique<transport::Subscriber<fuse_msgs::Health>>(
@@ -90,6 +91,7 @@ RunMonitor::~RunMonitor() {
 
 void RunMonitor::on_health(const fuse_msgs::Health& h) {
   std::lock_guard<std::mutex> lock(mutex_);
+  watch_.heard(h.service().to_string(), h.instance(), Clock::now());
   Instance& i = instances_[h.instance()];
   i.service = h.service().to_string();
   i.state = h.state().to_string();
@@ -135,9 +137,21 @@ void RunMonitor::update_progress() {
   progress_->update(s);
 }
 
+std::string RunMonitor::conflict() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return conflict_;
+}
+
 void RunMonitor::poll() {
   const auto now = Clock::now();
   std::lock_guard<std::mutex> lock(mutex_);
+  if (conflict_.empty()) {
+    const auto duplicates = watch_.duplicates(now);
+    if (!duplicates.empty()) {
+      conflict_ = service::describe_duplicate(duplicates.begin()->first, duplicates.begin()->second);
+      logger("launch")->error("{}; stopping", conflict_);
+    }
+  }
   update_progress();
   if (!have_estimate_) return;  // start-up: static initialisation waits for the data
   // An estimate is there while corrections arrive and fuse-state does not say lost. The
@@ -249,6 +263,7 @@ RunMonitor::Verdict RunMonitor::finish(const std::vector<launch::ServiceReport>&
                        ambiguous);
   }
   for (const std::string& loss : v.losses) out << "  LOST: " << loss << "\n";
+  if (!conflict_.empty()) out << "  FAILED: " << conflict_ << "\n";
   v.summary = out.str();
   return v;
 }

@@ -30,6 +30,7 @@
 
 #include "fuse/launch/process_supervisor.hpp"
 #include "fuse/launch/replay_progress.hpp"
+#include "fuse/service/instance_watch.hpp"
 #include "fuse/service/system_config.hpp"
 #include "fuse/transport/msg_traits.hpp"
 
@@ -49,6 +50,10 @@ class RunMonitor {
 
   /// Call regularly while the services run (the launcher's poll loop).
   void poll();
+  /// Two instances of one service alive at once on this domain under this system name (another
+  /// system with the same transport.system_name, or a service started twice): why, or empty.
+  /// fuse-launch stops the run and fails when it is set.
+  std::string conflict() const;
 
   struct Verdict {
     std::vector<std::string> losses;  ///< empty: nothing was lost
@@ -78,6 +83,8 @@ class RunMonitor {
 
   mutable std::mutex mutex_;
   std::map<std::uint64_t, Instance> instances_;
+  service::InstanceWatch watch_;  ///< mutex_
+  std::string conflict_;          ///< mutex_: the first duplicate seen
   Clock::time_point last_scan_published_{};  ///< when fuse-ingest's scan count last rose
   std::uint64_t scans_published_seen_ = 0;
   bool have_estimate_ = false;

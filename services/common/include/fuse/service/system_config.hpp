@@ -100,6 +100,10 @@ struct SchedulingConfig {
 
 struct HealthConfig {
   double period_s = 0.5;
+  /// How long a heartbeat counts when telling two live instances of one service (same system
+  /// name, same domain) from a restart: they are duplicates when each sent two heartbeats after
+  /// the other's first one within this window (InstanceWatch). At least 2.5 health periods.
+  double instance_window_s = 3.0;
   void load(ConfigNode& node);
 };
 
