@@ -673,6 +673,8 @@ int main(int argc, char** argv) {
       co.security = config.transport.security.enabled;
       co.security_keystore = config.transport.security.keystore;
       co.security_private_key = config.transport.security.private_key;
+      co.interfaces = config.transport.interfaces;
+      co.peers = config.transport.peers;
       co.scheduler_slice_us = o.query_slice_us;
       client = std::make_unique<query::Client>(co);
       // The calling thread is the planner's: it asks for the same slice as the client's threads.

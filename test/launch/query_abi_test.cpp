@@ -27,8 +27,8 @@ Layout recorded(int soversion) {
       return {456, 0, 8, 32, 64, 88, 376, 448, 0, 0, 0, 0, 496, 8, 40, 104, 6, 6};
     case 2:  // + angular_velocity, host_clock, frame names; at(t, Clock), subscribe(), newest()
       return {568, 0, 8, 32, 64, 112, 400, 472, 88, 480, 504, 536, 608, 8, 40, 104, 6, 6};
-    case 3:  // ClientOptions + system_name and the DDS Security identity (security_*)
-      return {568, 0, 8, 32, 64, 112, 400, 472, 88, 480, 504, 536, 608, 8, 40, 240, 6, 6};
+    case 3:  // ClientOptions + system_name, the DDS Security identity (security_*), interfaces, peers
+      return {568, 0, 8, 32, 64, 112, 400, 472, 88, 480, 504, 536, 608, 8, 40, 288, 6, 6};
     default:
       ADD_FAILURE() << "no layout recorded for SONAME " << soversion << ": add it to query_abi_test.cpp";
       return {};

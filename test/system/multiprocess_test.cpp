@@ -545,7 +545,9 @@ TEST_F(MultiProcess, IngestKilledInRealTimeIsADataGapTheEstimatorSurvives) {
   p.start("fuse-ingest", kShortData, realtime);
   ASSERT_TRUE(p.wait_for_lines(60, 60s));
   p.kill("fuse-ingest");
-  std::this_thread::sleep_for(500ms);
+  // The gap itself (not a wait for a condition): a restarted replay resumes max_lateness_s
+  // (0.5 s) behind the schedule, so down for 1.5 s leaves about 1 s of sensor time out.
+  std::this_thread::sleep_for(1500ms);
   p.start("fuse-ingest", kShortData, realtime);
   EXPECT_EQ(p.wait_ingest(kReplayTimeout), 0) << p.log("fuse-ingest", 2);
   EXPECT_TRUE(p.stop_all());

@@ -38,6 +38,32 @@ TEST(TransportConfig, RefusesBadValuesAndUnknownKeys) {
   }
 }
 
+TEST(TransportConfig, InterfacesPeersAndSecurityAreChecked) {
+  const TransportConfig c = load(
+      "loopback_only: false\ninterfaces: [10.77.0.1]\npeers: [10.77.0.1, 10.77.0.2]\n"
+      "security: {enabled: true, keystore: /etc/fuse-slam/keystore, identity: planner-2}\n");
+  EXPECT_EQ(c.interfaces, std::vector<std::string>{"10.77.0.1"});
+  EXPECT_EQ(c.peers.size(), 2u);
+  EXPECT_TRUE(c.security.enabled);
+  EXPECT_EQ(c.security.identity, "planner-2");
+  const std::vector<std::pair<std::string, std::string>> bad{
+      {"peers: [10.77.0.2]", "peers"},  // loopback_only (the default) has no peers
+      {"loopback_only: false\npeers: [vehicle-2]", "peers"},
+      {"loopback_only: false\ninterfaces: [10.77.0.300]", "interfaces"},
+      {"loopback_only: false\ninterfaces: [\"::1\"]", "interfaces"},
+      {"security: {enabled: true}", "security.keystore"},
+      {"security: {identity: ../key}", "security.identity"},
+      {"security: {enabled: true, keystore: k, password: x}", "security.password"}};
+  for (const auto& [yaml, key] : bad) {
+    try {
+      load(yaml);
+      ADD_FAILURE() << "accepted: " << yaml;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << yaml << ": " << e.what();
+    }
+  }
+}
+
 TEST(TransportConfig, MakeParticipantRefusesAnUnknownVendor) {
   TransportConfig c;
   c.vendor = "opendds";

@@ -13,7 +13,8 @@
 // - Domain: configured with dds_create_domain(domain_id, xml), once per process and domain id
 //   (Cyclone runs one instance per domain and process; every participant of the process shares
 //   it). Multicast off and unicast peers on 127.0.0.1, because loopback has no multicast; the
-//   `lo` interface when loopback_only; ParticipantIndex auto with MaxAutoParticipantIndex =
+//   `lo` interface when loopback_only (across computers: the configured interfaces and peers, and
+//   multicast only when no peers are configured); ParticipantIndex auto with MaxAutoParticipantIndex =
 //   max_participants, so every process of a test gets its own port and is probed by the others
 //   (and Fast DDS participants, whose ports follow the same formula, are reached too).
 // - Sockets: buffers of config.socket_buffer_bytes requested (not required: a smaller kernel
@@ -301,14 +302,27 @@ const ddsi_sertype_ops kSertypeOps = make_sertype_ops();
 std::string domain_xml(const TransportConfig& config) {
   std::string xml = "<CycloneDDS><Domain Id=\"any\"><General>";
   if (config.loopback_only) xml += "<Interfaces><NetworkInterface name=\"lo\"/></Interfaces>";
-  xml += "<AllowMulticast>false</AllowMulticast>";
+  if (!config.interfaces.empty()) {
+    xml += "<Interfaces>";
+    for (const std::string& a : config.interfaces) xml += "<NetworkInterface address=\"" + a + "\"/>";
+    xml += "</Interfaces>";
+  }
+  // Multicast only across computers without configured peers (discovery needs it then).
+  const bool multicast = !config.loopback_only && config.peers.empty();
+  xml += multicast ? "<AllowMulticast>true</AllowMulticast>" : "<AllowMulticast>false</AllowMulticast>";
   // Loopback carries 64 KiB datagrams: fragments of ~60 KB instead of the default 1344 B take a
   // 1 MiB sample from ~1.4 ms to ~0.5 ms one way (Fast DDS uses 64 KiB messages by default too).
   if (config.loopback_only) xml += "<MaxMessageSize>65000B</MaxMessageSize><FragmentSize>62000B</FragmentSize>";
   xml += "</General>";
+  // Unicast peers as with Fast DDS: 127.0.0.1 unless bound to named interfaces, the configured
+  // peers, and this computer's own interfaces (its other processes).
+  std::vector<std::string> peers = config.peers;
+  if (config.interfaces.empty()) peers.emplace_back("127.0.0.1");
+  peers.insert(peers.end(), config.interfaces.begin(), config.interfaces.end());
   xml += "<Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>" +
-         std::to_string(config.max_participants) +
-         "</MaxAutoParticipantIndex><Peers><Peer address=\"127.0.0.1\"/></Peers></Discovery>";
+         std::to_string(config.max_participants) + "</MaxAutoParticipantIndex><Peers>";
+  for (const std::string& a : peers) xml += "<Peer address=\"" + a + "\"/>";
+  xml += "</Peers></Discovery>";
   const std::string bytes = std::to_string(config.socket_buffer_bytes) + "B";
   xml += "<Internal><SocketReceiveBufferSize max=\"" + bytes + "\"/><SocketSendBufferSize max=\"" + bytes +
          "\"/></Internal>";

@@ -12,7 +12,10 @@
 //   unicast to initial peers on 127.0.0.1 because loopback has no multicast. Fast DDS probes
 //   the ports of participant ids 0..maxInitialPeersRange-1 there, so maxInitialPeersRange is
 //   the configured number of participants (the default 4 misses the fifth process).
-//   loopback_only whitelists 127.0.0.1, so nothing leaves the machine.
+//   loopback_only whitelists 127.0.0.1, so nothing leaves the machine. Across computers
+//   (loopback_only false) the configured interfaces are whitelisted and the configured peers,
+//   with this computer's own interface addresses, are the initial peers (unicast discovery;
+//   Fast DDS also announces on multicast where a link has it).
 // - Sockets: send/receive buffers of config.socket_buffer_bytes (4 MiB): with the default
 //   buffers a 1 MiB cloud takes ~12 ms on loopback (fragments are dropped and repaired), ~1 ms
 //   with 4 MiB.
@@ -154,15 +157,23 @@ class Context {
     udp->receiveBufferSize = static_cast<uint32_t>(config.socket_buffer_bytes);
     udp->maxInitialPeersRange = static_cast<uint32_t>(config.max_participants);
     if (config.loopback_only) udp->interfaceWhiteList.emplace_back("127.0.0.1");
+    for (const std::string& a : config.interfaces) udp->interfaceWhiteList.emplace_back(a);
     pqos.transport().user_transports.push_back(udp);
     if (config.shared_memory) {
       auto shm = std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>();
       shm->maxInitialPeersRange = static_cast<uint32_t>(config.max_participants);
       pqos.transport().user_transports.push_back(shm);
     }
-    rtps::Locator_t peer;
-    rtps::IPLocator::setIPv4(peer, 127, 0, 0, 1);  // port 0: every participant id in range
-    pqos.wire_protocol().builtin.initialPeersList.push_back(peer);
+    // Port 0: every participant id in range. 127.0.0.1 unless DDS is bound to named interfaces;
+    // then the configured peers and this computer's own interfaces (its other processes).
+    std::vector<std::string> peers = config.peers;
+    if (config.interfaces.empty()) peers.emplace_back("127.0.0.1");
+    peers.insert(peers.end(), config.interfaces.begin(), config.interfaces.end());
+    for (const std::string& address : peers) {
+      rtps::Locator_t peer;
+      rtps::IPLocator::setIPv4(peer, address);
+      pqos.wire_protocol().builtin.initialPeersList.push_back(peer);
+    }
     // A participant that joins late (a restarted service, a short-lived CLI) is answered at the
     // others' next periodic announcement: 0.5 s instead of the default 3 s bounds that wait, and
     // a 5 s lease lets the others forget a killed process sooner (loopback traffic is tiny).

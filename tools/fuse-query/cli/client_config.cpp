@@ -63,6 +63,8 @@ query::ClientOptions load_client_options(const std::string& file, const std::vec
   options.security_keystore = t.security.keystore;
   options.security_identity = t.security.identity;
   options.security_private_key = t.security.private_key;
+  options.interfaces = t.interfaces;
+  options.peers = t.peers;
   return options;
 }
 

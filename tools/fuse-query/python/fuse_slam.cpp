@@ -107,7 +107,9 @@ PYBIND11_MODULE(fuse_slam, m) {
       .def_readwrite("security", &ClientOptions::security)
       .def_readwrite("security_keystore", &ClientOptions::security_keystore)
       .def_readwrite("security_identity", &ClientOptions::security_identity)
-      .def_readwrite("security_private_key", &ClientOptions::security_private_key);
+      .def_readwrite("security_private_key", &ClientOptions::security_private_key)
+      .def_readwrite("interfaces", &ClientOptions::interfaces)
+      .def_readwrite("peers", &ClientOptions::peers);
 
   py::class_<HostClock>(m, "HostClock", "Host clock minus sensor clock: t_host = t + offset.")
       .def_readonly("known", &HostClock::known)

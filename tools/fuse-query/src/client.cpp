@@ -58,6 +58,8 @@ transport::TransportConfig transport_config(const ClientOptions& o) {
   c.security.keystore = o.security_keystore;
   c.security.identity = o.security_identity;
   c.security.private_key = o.security_private_key;
+  c.interfaces = o.interfaces;
+  c.peers = o.peers;
   return c;
 }
 

@@ -24,6 +24,12 @@ struct TransportConfig {
   /// with maxInitialPeersRange = max_participants; Cyclone with multicast off on `lo` and
   /// MaxAutoParticipantIndex = max_participants.
   bool loopback_only = true;
+  /// Across computers (loopback_only false): the IPv4 addresses of this computer's interfaces
+  /// DDS may use (empty: all), and the unicast discovery peers, the addresses of the system's
+  /// computers (empty: multicast discovery). Both vendors probe max_participants ports on each
+  /// peer, and this computer's own interfaces are peers too, so one list serves every computer.
+  std::vector<std::string> interfaces;
+  std::vector<std::string> peers;
   int max_participants = 32;
   std::size_t socket_buffer_bytes = 4u << 20;  ///< send/receive buffers (~1 MiB clouds need 4 MiB)
   bool shared_memory = false;  ///< Fast DDS shared-memory transport / data-sharing (off: UDP only)

@@ -23,6 +23,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #if defined(__GNUC__)
 #define FUSE_QUERY_API __attribute__((visibility("default")))
@@ -58,6 +59,10 @@ struct ClientOptions {
   std::string security_keystore;
   std::string security_identity;
   std::string security_private_key;  ///< empty: <keystore>/identities/<identity>/key.pem
+  /// Across computers (loopback_only false): transport.interfaces and transport.peers, IPv4
+  /// addresses (this computer's interfaces; the system's computers for unicast discovery).
+  std::vector<std::string> interfaces;
+  std::vector<std::string> peers;
 };
 
 /// Only `ok` means: a pose to steer by (the estimator tracks, t lies in its history, the
