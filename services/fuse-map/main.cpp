@@ -45,6 +45,7 @@ int main(int argc, char** argv) {
 
   try {
     auto participant = transport::make_participant(config.transport, "fuse-map");
+    config.map_server.system_name = config.transport.system_name;
     map_service::MapService map(config.map_server, *participant);
     service::HealthReporter health(*participant, "fuse-map", config.health.period_s, config.health.instance_window_s, [&] { return map.health(); });
     // Start-up complete (map loaded, endpoints created): READY; then the watchdog while the

@@ -301,7 +301,7 @@ void MapService::handle_control(const fuse_msgs::MapControlRequest& request, fus
       save_map(request.path().to_string(), reply);
       break;
     case fuse_msgs::MAP_LOAD:
-      load_map(request.path().to_string(), reply);
+      load_map(request.path().to_string(), request.other_system(), reply);
       break;
     default:
       set_reply_error(reply, fuse_msgs::RPC_BAD_REQUEST,
@@ -360,10 +360,26 @@ void MapService::save_map(const std::string& name, fuse_msgs::MapControlReply& r
   }
 }
 
-void MapService::load_map(const std::string& name, fuse_msgs::MapControlReply& reply) {
+void MapService::load_map(const std::string& name, bool other_system, fuse_msgs::MapControlReply& reply) {
   const std::optional<std::filesystem::path> resolved = saved_map(name, "load refused, the map is unchanged", reply);
   if (!resolved) return;
   const std::string path = resolved->string();
+  // A map another system recorded (another vehicle, another site) replaces this one only when
+  // the request says so, and that is logged.
+  MapMeta recorded;
+  const std::string& own = core_->config().system_name;
+  if (MapStorage::read_snapshot_header(path, recorded) && recorded.system_name != own) {
+    const std::string whose = "'" + name + "' was recorded by system '" + recorded.system_name + "', not by this one ('" +
+                              own + "')";
+    if (!other_system) {
+      report("control_refused", "load refused, the map is unchanged: " + whose + " (load it with --other-system)");
+      set_reply_error(reply, fuse_msgs::RPC_BAD_REQUEST,
+                      "load refused, the map is unchanged: " + whose + "; load it with --other-system to replace "
+                      "this system's map with it");
+      return;
+    }
+    report("foreign_maps_loaded", "control: loading " + whose + ", as asked (--other-system)");
+  }
   log()->info("control: loading {}", path);
   std::map<std::uint64_t, std::uint64_t> before;  // key -> revision of the map being replaced
   core_->map().for_each_chunk([&](const PointChunk& c) { before[c.key] = c.revision; });

@@ -96,7 +96,7 @@ class MapService {
   std::optional<std::filesystem::path> saved_map(const std::string& name, const std::string& refusal,
                                                  fuse_msgs::MapControlReply& reply);
   void save_map(const std::string& name, fuse_msgs::MapControlReply& reply);
-  void load_map(const std::string& name, fuse_msgs::MapControlReply& reply);
+  void load_map(const std::string& name, bool other_system, fuse_msgs::MapControlReply& reply);
   void publish_chunk(const PointChunk& chunk);
   void publish_all_chunks();
   void publish_status();

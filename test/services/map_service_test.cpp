@@ -719,6 +719,40 @@ TEST(MapService, RestartPublishesEveryRecentSessionsAcknowledgementAtOnce) {
   EXPECT_EQ(server->wait(10s), 0);
 }
 
+// A saved map another system recorded (issue 16): refused unless asked for, then loaded and logged.
+TEST(MapService, AnotherSystemsMapLoadsOnlyWhenAskedFor) {
+  TempDir dir;
+  {  // vehicle-b's (empty) map, saved among this server's saved maps
+    MapServerConfig other;
+    other.directory = dir.str("other-map");
+    other.system_name = "vehicle-b";
+    MapServerCore core(other, MapStorage::Access::kReadWrite);
+    fs::create_directories(dir.str("map/saved"));
+    core.save(dir.str("map/saved/vehicle-b.snapshot"));
+  }
+  auto server = start_map_server(dir, write_config(dir, 58));
+  MapClient client(58);
+  ASSERT_TRUE(client.wait_for_server()) << read_text(dir.str("fuse-map.log"));
+  const std::string domain = "58";
+  auto r = ctl(dir, {"--domain", domain, "--json", "load", "vehicle-b.snapshot"});
+  EXPECT_EQ(r.code, 3) << r.out;
+  EXPECT_EQ(json_field(r.out, "status"), "bad_request");
+  EXPECT_NE(r.out.find("vehicle-b"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("--other-system"), std::string::npos) << r.out;
+  EXPECT_EQ(json_field(r.out, "epoch"), "0") << "a refused load changed the map";
+  r = ctl(dir, {"--domain", domain, "--json", "load", "vehicle-b.snapshot", "--other-system"});
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(json_field(r.out, "epoch"), "1");
+  // Saved again, the map is this system's now: it loads without the flag.
+  ASSERT_EQ(ctl(dir, {"--domain", domain, "save", "mine.snapshot"}).code, 0);
+  EXPECT_EQ(ctl(dir, {"--domain", domain, "load", "mine.snapshot"}).code, 0);
+  server->signal(SIGTERM);
+  EXPECT_EQ(server->wait(10s), 0);
+  const std::string log = read_text(dir.str("fuse-map.log"));
+  EXPECT_NE(log.find("recorded by system 'vehicle-b'"), std::string::npos) << log;
+  EXPECT_NE(log.find("as asked (--other-system)"), std::string::npos) << log;
+}
+
 // ---- a map directory that cannot be written: degraded, not down ----------------------------------
 
 /// The persisted map directory read back as an export tool reads it.

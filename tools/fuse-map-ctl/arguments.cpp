@@ -74,6 +74,9 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
   save->add_option("NAME", a.file, "saved map's name (letters, digits, '.', '_', '-')");
   CLI::App* load = app->add_subcommand("load", "replaces the map by the saved map NAME (the epoch increases)");
   load->add_option("NAME", a.file, "saved map's name")->required();
+  load->add_flag("--other-system", a.other_system,
+                 "NAME was recorded by another system (another transport.system_name): replace this system's map "
+                 "with it anyway (fuse-map logs it); without it such a load is refused");
   app->require_subcommand(0, 1);
   if (const std::optional<int> code = cli::parse(*app, argc, argv)) return code;
 

@@ -19,6 +19,7 @@ struct Arguments {
   std::vector<std::string> overrides;  ///< --set dotted.key=value in order, then --domain, --vendor
   int deadline_ms = 5000;
   bool json = false;
+  bool other_system = false;  ///< load NAME --other-system: NAME may be another system's map
 };
 
 /// Parses and checks argv into `a` (CLI11, the convention of every binary: fuse/cli/cli.hpp).

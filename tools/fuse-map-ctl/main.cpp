@@ -1,7 +1,8 @@
 // fuse-map-ctl: controls the running map server through its map/control service.
 //
 //   fuse-map-ctl [--config FILE] [--set key=value]... [--domain N] [--vendor V] [--deadline-ms N]
-//                [--json] (--mode mapping|localization | save [NAME] | load NAME | stats)   (--help; --version)
+//                [--json] (--mode mapping|localization | save [NAME] | load NAME [--other-system] | stats)
+//                (--help; --version)
 //
 // Prints the map's state after the command (or one JSON object, errors included).
 // Exit codes: 0 done, 2 usage or config, 3 error reply, 4 no server answered before the deadline.
@@ -34,6 +35,7 @@ fuse_msgs::MapControlRequest make_request(const fuse::map_ctl::Arguments& args, 
       name = "load";
       req.command(fuse_msgs::MAP_LOAD);
       req.path(args.file);
+      req.other_system(args.other_system);
       break;
     default:
       name = "stats";

@@ -85,6 +85,7 @@ MapServerCore::MapServerCore(const MapServerConfig& config, MapStorage::Access a
   if (!index_built) rebuild_index();
   meta_.mode = config_.policy.mode;
   meta_.min_point_distance = config_.policy.min_point_distance;
+  meta_.system_name = config_.system_name;
 
   for (const std::string& problem : load_report_.problems) log->warn("{}", problem);
   if (map_.chunk_size() != config_.chunk_size) {
@@ -418,6 +419,7 @@ LoadReport MapServerCore::load(const std::filesystem::path& file) {
   meta.epoch = meta_.epoch + 1;
   meta.mode = meta_.mode;
   meta.min_point_distance = meta_.min_point_distance;
+  meta.system_name = meta_.system_name;  // from now on this system's map
   // Durable first: a failure leaves the served map as it was.
   storage_->snapshot(loaded, meta);
   ++snapshots_;

@@ -126,6 +126,7 @@ MapMeta meta_of(const map::pb::SnapshotHeader& header) {
   meta.mode = header.mode();
   meta.epoch = header.epoch();
   meta.observations = header.observations();
+  meta.system_name = header.system_name();
   // Stored most recently active first: restored oldest first, so that the order is kept.
   for (auto it = header.applied().rbegin(); it != header.applied().rend(); ++it) {
     std::vector<std::pair<std::uint64_t, std::uint64_t>> ranges;
@@ -187,6 +188,7 @@ void MapStorage::write_snapshot_file(const fs::path& file, const PointMap& map, 
   }
   header.set_epoch(meta.epoch);
   header.set_observations(meta.observations);
+  header.set_system_name(meta.system_name);
   header.set_chunk_count(map.num_chunks());
   header.set_point_count(map.num_points());
 

@@ -88,6 +88,9 @@ struct MapServerConfig {
   /// Where the control RPC's `save NAME` writes and `load NAME` reads (map_names.hpp): never the
   /// map directory itself, whose live snapshot and journal no name may reach. Empty: DIR/saved.
   std::string saved_directory;
+  /// Not a map_server key: fuse-map sets it from transport.system_name. Snapshots record it, and
+  /// a saved map recorded under another name is loaded only when asked for explicitly.
+  std::string system_name;
   /// saved_directory, or its default.
   std::filesystem::path saved_maps() const;
   MapPolicyConfig policy;            ///< policy.mode is the mode at start-up

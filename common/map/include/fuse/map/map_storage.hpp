@@ -80,6 +80,7 @@ struct MapMeta {
   std::uint64_t epoch = 0;         ///< increases each time the map is replaced (load)
   std::uint64_t observations = 0;  ///< observations applied to this map, in total
   SessionAcks acks;                ///< per session: acknowledged, and durable above a hole
+  std::string system_name;         ///< transport.system_name of the system that built it (empty: default)
 };
 
 /// Bytes of a file that a load skipped as damaged.
