@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 #include <future>
+#include <map>
 #include <stdexcept>
 #include <vector>
 
@@ -100,6 +101,7 @@ MapService::MapService(const MapServerConfig& config, transport::Participant& pa
     control_ = std::make_unique<ControlServer>(
         participant, transport::services::kMapControl,
         [this](const fuse_msgs::MapControlRequest& req, fuse_msgs::MapControlReply& rep) { on_control(req, rep); });
+    control_->track_callers();
   } catch (...) {
     stop();
     throw;
@@ -171,7 +173,10 @@ void MapService::on_malformed(const std::string& reason) {
 
 void MapService::on_control(const fuse_msgs::MapControlRequest& request, fuse_msgs::MapControlReply& reply) {
   // Run on the worker, between observations, and wait: the core has one caller.
-  std::packaged_task<void()> task([&] { handle_control(request, reply); });
+  // Who asked (the sending participant, with its certificate's subject where the vendor tells it):
+  // every control request is logged with it.
+  const std::string caller = control_->caller();
+  std::packaged_task<void()> task([&] { handle_control(request, caller, reply); });
   std::future<void> done = task.get_future();
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
@@ -282,7 +287,8 @@ void MapService::handle_observation(const fuse_msgs::MapObservation& o) {
   publish_status();
 }
 
-void MapService::handle_control(const fuse_msgs::MapControlRequest& request, fuse_msgs::MapControlReply& reply) {
+void MapService::handle_control(const fuse_msgs::MapControlRequest& request, const std::string& caller,
+                                fuse_msgs::MapControlReply& reply) {
   count("control_requests");
   switch (request.command()) {
     case fuse_msgs::MAP_STATS:
@@ -308,6 +314,27 @@ void MapService::handle_control(const fuse_msgs::MapControlRequest& request, fus
                       "unknown command " + std::to_string(static_cast<int>(request.command())));
   }
   if (reply.error() != fuse_msgs::RPC_OK) count("control_errors");
+  {
+    static const std::map<int, std::string> kNames{{fuse_msgs::MAP_STATS, "stats"}, {fuse_msgs::MAP_SET_MODE, "mode"},
+                                                   {fuse_msgs::MAP_SAVE, "save"}, {fuse_msgs::MAP_LOAD, "load"}};
+    const auto name = kNames.find(static_cast<int>(request.command()));
+    std::string what = name != kNames.end() ? name->second : "command " + std::to_string(static_cast<int>(request.command()));
+    if (request.command() == fuse_msgs::MAP_SET_MODE) what += " " + request.mode().to_string();
+    if (request.command() == fuse_msgs::MAP_SAVE || request.command() == fuse_msgs::MAP_LOAD) {
+      what += " '" + request.path().to_string() + "'";
+    }
+    if (request.command() == fuse_msgs::MAP_LOAD && request.other_system()) what += " --other-system";
+    const std::string who = caller.empty() ? "an unknown participant" : caller;
+    if (reply.error() == fuse_msgs::RPC_OK) {
+      if (request.command() == fuse_msgs::MAP_STATS) {
+        log()->debug("control: {} from {}: ok", what, who);
+      } else {
+        log()->info("control: {} from {}: ok", what, who);
+      }
+    } else {
+      log()->warn("control: {} from {}: {}", what, who, reply.error_message().to_string());
+    }
+  }
 
   const MapServerStats s = core_->stats();
   reply.mode(s.mode);

@@ -90,7 +90,8 @@ class MapService {
   // Worker thread: everything that touches the core.
   void run();
   void handle_observation(const fuse_msgs::MapObservation& observation);
-  void handle_control(const fuse_msgs::MapControlRequest& request, fuse_msgs::MapControlReply& reply);
+  void handle_control(const fuse_msgs::MapControlRequest& request, const std::string& caller,
+                      fuse_msgs::MapControlReply& reply);
   /// The saved map `name` resolves to (map_names.hpp), or nullopt after refusing the request:
   /// counted, and the reply's error is `refusal` and what a name must be.
   std::optional<std::filesystem::path> saved_map(const std::string& name, const std::string& refusal,

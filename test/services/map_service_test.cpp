@@ -751,6 +751,9 @@ TEST(MapService, AnotherSystemsMapLoadsOnlyWhenAskedFor) {
   const std::string log = read_text(dir.str("fuse-map.log"));
   EXPECT_NE(log.find("recorded by system 'vehicle-b'"), std::string::npos) << log;
   EXPECT_NE(log.find("as asked (--other-system)"), std::string::npos) << log;
+  // Every control request is logged with who sent it.
+  EXPECT_NE(log.find("control: load 'vehicle-b.snapshot' --other-system from fuse-map-ctl: ok"), std::string::npos) << log;
+  EXPECT_NE(log.find("control: load 'vehicle-b.snapshot' from fuse-map-ctl: load refused"), std::string::npos) << log;
 }
 
 // ---- a map directory that cannot be written: degraded, not down ----------------------------------

@@ -247,8 +247,15 @@ TEST_P(Security, OnlyAuthorisedProcessesAreHeard) {
 TEST_P(Security, OnlyTheOperatorMayCallMapControl) {
   auto map = make_participant(as("", 1), "fuse-map");
   std::atomic<int> handled{0};
+  std::string caller;  // written in the handler, read after the children are done
+  RpcServer<fuse_msgs::MapControlRequest, fuse_msgs::MapControlReply>* self = nullptr;
   RpcServer<fuse_msgs::MapControlRequest, fuse_msgs::MapControlReply> server(
-      *map, services::kMapControl, [&](const fuse_msgs::MapControlRequest&, fuse_msgs::MapControlReply&) { ++handled; });
+      *map, services::kMapControl, [&](const fuse_msgs::MapControlRequest&, fuse_msgs::MapControlReply&) {
+        ++handled;
+        caller = self->caller();
+      });
+  self = &server;
+  server.track_callers();
   const std::string v = GetParam();
   const int d = domain(1);
   Child no_keys(v, d, "", "fuse-map-ctl", "control", 4);
@@ -260,6 +267,12 @@ TEST_P(Security, OnlyTheOperatorMayCallMapControl) {
   EXPECT_FALSE(planner.result().created) << "the planner's grant let it create a map control client";
   EXPECT_EQ(foreign.result().status, static_cast<int>(fuse_msgs::RPC_UNAVAILABLE));
   EXPECT_EQ(handled.load(), 1) << "map control ran for someone other than the operator";
+  // The server knows who called: the operator's participant, and with Fast DDS the subject of
+  // the certificate it authenticated with.
+  EXPECT_NE(caller.find("fuse-map-ctl"), std::string::npos) << caller;
+  if (GetParam() == "fastdds") {
+    EXPECT_NE(caller.find("CN=fuse-map-ctl"), std::string::npos) << caller;
+  }
 }
 
 TEST_P(Security, GrantIsEnforced) {

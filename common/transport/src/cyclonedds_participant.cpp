@@ -459,6 +459,34 @@ class Context {
   }
 
   dds_entity_t participant() const { return participant_; }
+
+  /// The name the participant that wrote a sample `reader` took gives itself (empty: unknown).
+  std::string sender_name(dds_entity_t reader, dds_instance_handle_t publication) {
+    dds_builtintopic_endpoint_t* endpoint = dds_get_matched_publication_data(reader, publication);
+    if (endpoint == nullptr) return "";
+    const dds_instance_handle_t owner = endpoint->participant_instance_handle;
+    dds_builtintopic_free_endpoint(endpoint);
+    std::lock_guard<std::mutex> lock(names_mutex_);
+    if (participants_reader_ == 0) {
+      participants_reader_ = dds_create_reader(participant_, DDS_BUILTIN_TOPIC_DCPSPARTICIPANT, nullptr, nullptr);
+      if (participants_reader_ < 0) {
+        participants_reader_ = 0;
+        return "";
+      }
+    }
+    void* samples[1] = {nullptr};
+    dds_sample_info_t info;
+    const dds_return_t n = dds_read_instance(participants_reader_, samples, &info, 1, 1, owner);
+    std::string name;
+    if (n > 0 && info.valid_data) {
+      char* entity_name = nullptr;
+      const auto* data = static_cast<const dds_builtintopic_participant_t*>(samples[0]);
+      if (dds_qget_entity_name(data->qos, &entity_name) && entity_name != nullptr) name = entity_name;
+      dds_free(entity_name);
+    }
+    if (n > 0) dds_return_loan(participants_reader_, samples, n);
+    return name;
+  }
   /// Why an endpoint may have been refused: the grant of this process's security identity.
   std::string refusal_hint(const std::string& what) const { return security_refusal_hint(identity_, what); }
   dds_entity_t publisher() const { return publisher_; }
@@ -498,6 +526,8 @@ class Context {
   };
   int domain_id_;
   std::string identity_;  ///< the security identity (empty: security off)
+  std::mutex names_mutex_;
+  dds_entity_t participants_reader_ = 0;  ///< DCPSParticipant, made on the first sender_name()
   dds_entity_t participant_ = 0;
   dds_entity_t publisher_ = 0, subscriber_ = 0;  // deleted with the participant
   std::mutex mutex_;
@@ -577,6 +607,19 @@ class CycloneReader : public RawReader {
  private:
   static void on_data_available(dds_entity_t reader, void* arg) { static_cast<CycloneReader*>(arg)->drain(reader); }
 
+  /// The sender of the sample in hand, looked up only when asked.
+  class Sender : public SenderLookup {
+   public:
+    Sender(Context& context, dds_entity_t reader, dds_instance_handle_t publication)
+        : context_(context), reader_(reader), publication_(publication) {}
+    std::string sender() const override { return context_.sender_name(reader_, publication_); }
+
+   private:
+    Context& context_;
+    dds_entity_t reader_;
+    dds_instance_handle_t publication_;
+  };
+
   void drain(dds_entity_t reader) {
     std::lock_guard<std::mutex> lock(take_mutex_);
     if (closed_) return;
@@ -585,7 +628,11 @@ class CycloneReader : public RawReader {
       dds_sample_info_t info;
       const dds_return_t n = dds_takecdr(reader, &sd, 1, &info, DDS_ANY_STATE);
       if (n <= 0) break;
-      if (info.valid_data && sd != nullptr) deliver(sd);
+      if (info.valid_data && sd != nullptr) {
+        const Sender sender(*context_, reader, info.publication_handle);
+        const SenderScope scope(&sender);
+        deliver(sd);
+      }
       if (sd != nullptr) ddsi_serdata_unref(sd);
     }
   }

@@ -34,6 +34,7 @@
 //   not declare it, so the typed layer tolerates up to 3 trailing bytes).
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/domain/DomainParticipantListener.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
 #include <fastdds/dds/publisher/qos/DataWriterQos.hpp>
@@ -121,6 +122,39 @@ class OpaqueType : public dds::TopicDataType {
   }
 };
 
+/// The names of the participants this one discovered, by GUID prefix: for current_sender(). With
+/// security on, the subject of the certificate the participant authenticated with comes first
+/// (its identity token's dds.cert.sn), then the name it gives itself.
+class ParticipantNames : public dds::DomainParticipantListener {
+ public:
+  void on_participant_discovery(dds::DomainParticipant*, rtps::ParticipantDiscoveryInfo&& info) override {
+    using Status = rtps::ParticipantDiscoveryInfo::DISCOVERY_STATUS;
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (info.status == Status::REMOVED_PARTICIPANT || info.status == Status::DROPPED_PARTICIPANT) {
+      names_.erase(info.info.m_guid.guidPrefix);
+      return;
+    }
+    std::string name = info.info.m_participantName.to_string();
+    for (const auto& property : info.info.identity_token_.properties()) {
+      if (property.name() == "dds.cert.sn" && !property.value().empty()) name = property.value() + " (" + name + ")";
+    }
+    names_[info.info.m_guid.guidPrefix] = name;
+  }
+  std::string name(const rtps::GuidPrefix_t& prefix) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto it = names_.find(prefix);
+    return it == names_.end() ? std::string() : it->second;
+  }
+  void add_self(const rtps::GuidPrefix_t& prefix, const std::string& name) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    names_[prefix] = name;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::map<rtps::GuidPrefix_t, std::string> names_;
+};
+
 /// DDS Security with the builtin plugins: PKI-DH authentication, access control by the signed
 /// governance and permissions, AES-GCM-GMAC cryptography (what governance asks for: ENCRYPT).
 void add_security_properties(dds::DomainParticipantQos& pqos, const SecurityFiles& f) {
@@ -184,7 +218,7 @@ class Context {
     if (config.security.enabled) add_security_properties(pqos, security_files(config.security, name));
 
     auto* factory = dds::DomainParticipantFactory::get_instance();
-    participant_ = factory->create_participant(config.domain_id, pqos);
+    participant_ = factory->create_participant(config.domain_id, pqos, &names_, dds::StatusMask::none());
     if (participant_ == nullptr) {
       throw std::runtime_error("transport: Fast DDS could not create a participant on domain " +
                                std::to_string(config.domain_id) +
@@ -192,6 +226,7 @@ class Context {
                                                           "see the log above)"
                                                         : ""));
     }
+    names_.add_self(participant_->guid().guidPrefix, name);
     // transport.system_name: every endpoint in that partition only, so that two systems on one
     // domain never match each other's topics (empty: the default partition).
     dds::PublisherQos publisher_qos = dds::PUBLISHER_QOS_DEFAULT;
@@ -210,9 +245,12 @@ class Context {
   }
 
   ~Context() {
+    participant_->set_listener(nullptr);
     participant_->delete_contained_entities();
     dds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
   }
+  /// The name of the participant with this GUID prefix (empty: unknown).
+  std::string participant_name(const rtps::GuidPrefix_t& prefix) const { return names_.name(prefix); }
 
   dds::Publisher* publisher() const { return publisher_; }
   /// Why an endpoint may have been refused: the grant of this process's security identity.
@@ -257,6 +295,7 @@ class Context {
     int users;
   };
   std::string identity_;  ///< the security identity (empty: security off)
+  ParticipantNames names_;  ///< before participant_: its listener
   dds::DomainParticipant* participant_ = nullptr;
   dds::Publisher* publisher_ = nullptr;
   dds::Subscriber* subscriber_ = nullptr;
@@ -348,6 +387,17 @@ class FastddsWriter : public RawWriter {
 };
 
 class FastddsReader : public RawReader, public dds::DataReaderListener {
+  /// The sender of the sample in hand, looked up only when asked.
+  class Sender : public SenderLookup {
+   public:
+    Sender(const Context& context, const rtps::GuidPrefix_t& prefix) : context_(context), prefix_(prefix) {}
+    std::string sender() const override { return context_.participant_name(prefix_); }
+
+   private:
+    const Context& context_;
+    rtps::GuidPrefix_t prefix_;
+  };
+
  public:
   FastddsReader(std::shared_ptr<Context> context, const std::string& topic, const TypeSupport& type,
                 const TopicQos& qos, RawHandler handler)
@@ -384,6 +434,8 @@ class FastddsReader : public RawReader, public dds::DataReaderListener {
     dds::SampleInfo info;
     while (reader->take_next_sample(&sample_, &info) == ReturnCode_t::RETCODE_OK) {
       if (!info.valid_data) continue;  // dispose/unregister notifications carry no sample
+      const Sender sender(*context_, info.sample_identity.writer_guid().guidPrefix);
+      const SenderScope scope(&sender);
       try {
         handler_(sample_.data(), unpadded_size(sample_.data(), sample_.size()));
       } catch (const std::exception& e) {

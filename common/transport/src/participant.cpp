@@ -4,6 +4,15 @@
 
 namespace fuse::transport {
 
+namespace {
+thread_local const detail::SenderLookup* tl_sender = nullptr;
+}  // namespace
+
+std::string current_sender() { return tl_sender != nullptr ? tl_sender->sender() : std::string(); }
+
+detail::SenderScope::SenderScope(const SenderLookup* lookup) : previous_(tl_sender) { tl_sender = lookup; }
+detail::SenderScope::~SenderScope() { tl_sender = previous_; }
+
 std::unique_ptr<Participant> make_participant(const TransportConfig& config, const std::string& name) {
   if (config.domain_id < 0 || config.domain_id > 101) {
     throw std::runtime_error("transport: domain_id " + std::to_string(config.domain_id) + " is outside [0, 101]");

@@ -15,6 +15,7 @@
 #include <optional>
 #include <random>
 #include <thread>
+#include <utility>
 
 #include "fuse/transport/msg_traits.hpp"
 
@@ -63,37 +64,44 @@ class RpcServer {
   }
 
   std::uint64_t handled() const { return handled_; }
+  /// From now on, remember who sent each request (current_sender()): caller() names it while the
+  /// handler runs. Off by default (a lookup per request).
+  void track_callers() { track_callers_ = true; }
+  /// The sender of the request being handled (handler thread only; empty unless tracked).
+  const std::string& caller() const { return caller_; }
   std::uint64_t malformed() const { return requests_.malformed(); }
 
  private:
   void enqueue(const Req& r) {
+    std::string sender = track_callers_ ? current_sender() : std::string();
     if (dispatch_ == Dispatch::kInline) {
-      handle(r);
+      handle(r, std::move(sender));
       return;
     }
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      queue_.push_back(r);
+      queue_.emplace_back(r, std::move(sender));
     }
     cv_.notify_one();
   }
 
   void run() {
     for (;;) {
-      Req req;
+      std::pair<Req, std::string> item;
       {
         std::unique_lock<std::mutex> lock(mutex_);
         cv_.wait(lock, [this] { return stop_ || !queue_.empty(); });
         if (stop_) return;
-        req = std::move(queue_.front());
+        item = std::move(queue_.front());
         queue_.pop_front();
       }
-      handle(req);
+      handle(item.first, std::move(item.second));
     }
   }
 
-  void handle(const Req& req) {
+  void handle(const Req& req, std::string sender) {
     std::lock_guard<std::mutex> lock(handle_mutex_);
+    caller_ = std::move(sender);
     const auto client = req.header().client_id();
     auto cached = last_.find(client);
     if (cached != last_.end() && cached->second.header().request_id() == req.header().request_id()) {
@@ -121,9 +129,11 @@ class RpcServer {
   Publisher<Rep> replies_;
   std::mutex mutex_;  ///< guards queue_ and stop_
   std::condition_variable cv_;
-  std::deque<Req> queue_;
+  std::deque<std::pair<Req, std::string>> queue_;  ///< requests and their senders
   bool stop_ = false;
-  std::mutex handle_mutex_;  ///< one request at a time; guards last_
+  std::atomic<bool> track_callers_{false};
+  std::string caller_;       ///< handle_mutex_
+  std::mutex handle_mutex_;  ///< one request at a time; guards last_ and caller_
   std::map<std::uint64_t, Rep> last_;
   std::atomic<std::uint64_t> handled_{0};
   Subscriber<Req> requests_;

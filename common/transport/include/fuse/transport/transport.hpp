@@ -93,6 +93,32 @@ class Participant {
   virtual std::string vendor() const = 0;
 };
 
+/// Who sent the sample whose handler is running on this thread: the sending participant's name
+/// and, where its vendor tells it (Fast DDS, security on), the subject of its certificate
+/// ("CN=fuse-map-ctl (fuse-map-ctl)"). Empty outside a handler or when unknown. Resolved on
+/// demand: a handler that never asks costs nothing.
+std::string current_sender();
+
+namespace detail {
+/// Set by a backend around a handler call: resolves the sender of the sample in hand.
+class SenderLookup {
+ public:
+  virtual ~SenderLookup() = default;
+  virtual std::string sender() const = 0;
+};
+/// Makes `lookup` the current thread's sender for its lifetime.
+class SenderScope {
+ public:
+  explicit SenderScope(const SenderLookup* lookup);
+  ~SenderScope();
+  SenderScope(const SenderScope&) = delete;
+  SenderScope& operator=(const SenderScope&) = delete;
+
+ private:
+  const SenderLookup* previous_;
+};
+}  // namespace detail
+
 /// Creates a participant of the configured vendor; throws std::runtime_error naming what failed.
 /// `name` identifies the process in discovery (e.g. "fuse-state").
 std::unique_ptr<Participant> make_participant(const TransportConfig& config, const std::string& name);
