@@ -1,6 +1,6 @@
 // DDS Security on each vendor, with keystores made by fuse-keystore: authorised identities
 // talk; a process without keys, one with another CA's certificate, and one whose grant does not
-// cover a topic are refused or never matched. Domain ids 1..3 (fastdds), 5..7 (cyclonedds).
+// cover a topic are refused or never matched. Domain ids 1..4 (fastdds), 5..8 (cyclonedds).
 #include <fcntl.h>
 #include <signal.h>
 #include <spawn.h>
@@ -25,10 +25,11 @@ namespace fs = std::filesystem;
 /// A keystore made by the fuse-keystore binary in a fresh temporary directory.
 class Keystore {
  public:
-  explicit Keystore(const std::string& tag) {
+  explicit Keystore(const std::string& tag, const std::string& system = "") {
     std::string pattern = (fs::temp_directory_path() / ("fuse-keystore-test-" + tag + "-XXXXXX")).string();
     dir_ = ::mkdtemp(pattern.data());
-    for (const std::string& args : {"init " + dir_ + "/ks", "add-identity " + dir_ + "/ks second-planner --role planner"}) {
+    const std::string init = "init " + dir_ + "/ks" + (system.empty() ? "" : " --system " + system);
+    for (const std::string& args : {init, "add-identity " + dir_ + "/ks second-planner --role planner"}) {
       if (run(args) != 0) throw std::runtime_error("fuse-keystore " + args + " failed");
     }
   }
@@ -286,6 +287,21 @@ TEST_P(Security, GrantIsEnforced) {
                std::runtime_error);
   EXPECT_NO_THROW(Publisher<fuse_msgs::QueryRequest>(*planner, request_topic(services::kQuery)));
   EXPECT_NO_THROW(Subscriber<fuse_msgs::StateEstimate>(*planner, topics::kOdometry, [](const fuse_msgs::StateEstimate&) {}));
+}
+
+TEST_P(Security, GrantsOfANamedSystemHoldOnlyInItsPartition) {
+  // fuse-keystore init --system truck-7: every grant names that partition only.
+  static Keystore named("named", "truck-7");
+  for (const std::string system : {"truck-7", "truck-8", ""}) {
+    TransportConfig c = secured(GetParam(), domain(2), named.path(), "fuse-ingest");
+    c.system_name = system;
+    auto ingest = make_participant(c, "fuse-ingest");
+    if (system == "truck-7") {
+      EXPECT_NO_THROW(Publisher<fuse_msgs::ImuSample>(*ingest, topics::kImu));
+    } else {
+      EXPECT_THROW(Publisher<fuse_msgs::ImuSample>(*ingest, topics::kImu), std::runtime_error) << "system '" << system << "'";
+    }
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Vendors, Security, ::testing::ValuesIn(vendors()),
