@@ -1,9 +1,7 @@
 // Across processes: this test binary starts itself as an RPC server (DISABLED_Child.QueryServer,
 // run only when spawned) and calls it, so discovery and delivery go through the loopback peers
 // rather than any in-process shortcut. Same vendor on both sides, and both vendor pairs.
-#include <fcntl.h>
 #include <signal.h>
-#include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -12,7 +10,6 @@
 
 #include "test_util.hpp"
 
-extern char** environ;
 
 namespace fuse::transport::test {
 namespace {
@@ -40,23 +37,9 @@ TEST(DISABLED_Child, QueryServer) {
 
 class ChildProcess {
  public:
-  ChildProcess(const std::string& vendor, int domain) {
-    std::vector<std::string> env_strings{"FUSE_TRANSPORT_CHILD_VENDOR=" + vendor,
-                                         "FUSE_TRANSPORT_CHILD_DOMAIN=" + std::to_string(domain)};
-    std::vector<char*> envp;
-    for (auto& s : env_strings) envp.push_back(s.data());
-    for (char** e = environ; *e != nullptr; ++e) envp.push_back(*e);
-    envp.push_back(nullptr);
-    std::string exe = "/proc/self/exe", filter = "--gtest_filter=DISABLED_Child.QueryServer",
-                also = "--gtest_also_run_disabled_tests";
-    char* argv[] = {exe.data(), filter.data(), also.data(), nullptr};
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, "/dev/null", O_WRONLY, 0);
-    const int rc = posix_spawn(&pid_, exe.c_str(), &actions, nullptr, argv, envp.data());
-    posix_spawn_file_actions_destroy(&actions);
-    if (rc != 0) pid_ = -1;
-  }
+  ChildProcess(const std::string& vendor, int domain)
+      : pid_(spawn_this_test("DISABLED_Child.QueryServer", {"FUSE_TRANSPORT_CHILD_VENDOR=" + vendor,
+                                                            "FUSE_TRANSPORT_CHILD_DOMAIN=" + std::to_string(domain)})) {}
   ~ChildProcess() {
     if (pid_ > 0 && !wait(5s)) {
       kill(pid_, SIGKILL);

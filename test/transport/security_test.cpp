@@ -1,9 +1,7 @@
 // DDS Security on each vendor, with keystores made by fuse-keystore: authorised identities
 // talk; a process without keys, one with another CA's certificate, and one whose grant does not
 // cover a topic are refused or never matched. Domain ids 1..4 (fastdds), 5..8 (cyclonedds).
-#include <fcntl.h>
 #include <signal.h>
-#include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -15,7 +13,6 @@
 #include "fuse/transport/security.hpp"
 #include "test_util.hpp"
 
-extern char** environ;
 
 namespace fuse::transport::test {
 namespace {
@@ -163,22 +160,11 @@ class Child {
     result_file_ = (fs::temp_directory_path() / ("fuse-sec-child-" + std::to_string(::getpid()) + "-" +
                                                  std::to_string(counter()++)))
                        .string();
-    std::vector<std::string> vars{"FUSE_SEC_VENDOR=" + vendor,      "FUSE_SEC_DOMAIN=" + std::to_string(domain),
-                                  "FUSE_SEC_KEYSTORE=" + keystore,  "FUSE_SEC_IDENTITY=" + identity,
-                                  "FUSE_SEC_ACTION=" + action,      "FUSE_SEC_SECONDS=" + std::to_string(seconds),
-                                  "FUSE_SEC_RESULT=" + result_file_};
-    std::vector<char*> envp;
-    for (auto& v : vars) envp.push_back(v.data());
-    for (char** e = environ; *e != nullptr; ++e) envp.push_back(*e);
-    envp.push_back(nullptr);
-    std::string exe = "/proc/self/exe", filter = "--gtest_filter=DISABLED_SecurityChild.Run",
-                also = "--gtest_also_run_disabled_tests";
-    char* argv[] = {exe.data(), filter.data(), also.data(), nullptr};
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, "/dev/null", O_WRONLY, 0);
-    if (posix_spawn(&pid_, exe.c_str(), &actions, nullptr, argv, envp.data()) != 0) pid_ = -1;
-    posix_spawn_file_actions_destroy(&actions);
+    pid_ = spawn_this_test("DISABLED_SecurityChild.Run",
+                           {"FUSE_SEC_VENDOR=" + vendor, "FUSE_SEC_DOMAIN=" + std::to_string(domain),
+                            "FUSE_SEC_KEYSTORE=" + keystore, "FUSE_SEC_IDENTITY=" + identity,
+                            "FUSE_SEC_ACTION=" + action, "FUSE_SEC_SECONDS=" + std::to_string(seconds),
+                            "FUSE_SEC_RESULT=" + result_file_});
   }
   ~Child() {
     if (pid_ > 0) {

@@ -2,7 +2,10 @@
 // every wire type filled with non-default contents (every field, sequences, strings).
 #pragma once
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <spawn.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cmath>
@@ -16,6 +19,8 @@
 
 #include "fuse/transport/msg_traits.hpp"
 #include "fuse/transport/rpc.hpp"
+
+extern char** environ;
 
 namespace fuse::transport::test {
 
@@ -34,6 +39,24 @@ inline TransportConfig config(const std::string& vendor, int domain_id) {
   c.vendor = vendor;
   c.domain_id = domain_id;
   return c;
+}
+
+/// Starts this test binary again running only `test` (a DISABLED_ one), with `env` added to the
+/// environment and stdout to /dev/null; its pid, or -1 when it could not start.
+inline pid_t spawn_this_test(const std::string& test, std::vector<std::string> env) {
+  std::vector<char*> envp;
+  for (auto& v : env) envp.push_back(v.data());
+  for (char** e = environ; *e != nullptr; ++e) envp.push_back(*e);
+  envp.push_back(nullptr);
+  std::string exe = "/proc/self/exe", filter = "--gtest_filter=" + test, also = "--gtest_also_run_disabled_tests";
+  char* argv[] = {exe.data(), filter.data(), also.data(), nullptr};
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, "/dev/null", O_WRONLY, 0);
+  pid_t pid = -1;
+  if (posix_spawn(&pid, exe.c_str(), &actions, nullptr, argv, envp.data()) != 0) pid = -1;
+  posix_spawn_file_actions_destroy(&actions);
+  return pid;
 }
 
 template <class Pred>

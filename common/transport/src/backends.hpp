@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "fuse/transport/transport.hpp"
 
@@ -13,6 +14,16 @@ namespace fuse::transport::detail {
 
 std::unique_ptr<Participant> make_fastdds_participant(const TransportConfig& config, const std::string& name);
 std::unique_ptr<Participant> make_cyclonedds_participant(const TransportConfig& config, const std::string& name);
+
+/// The unicast discovery peers of both backends: 127.0.0.1 unless DDS is bound to named
+/// interfaces, then the configured peers and this computer's own interfaces (its other
+/// processes), so one peer list serves every computer of a system.
+inline std::vector<std::string> discovery_peers(const TransportConfig& config) {
+  std::vector<std::string> peers = config.peers;
+  if (config.interfaces.empty()) peers.emplace_back("127.0.0.1");
+  peers.insert(peers.end(), config.interfaces.begin(), config.interfaces.end());
+  return peers;
+}
 
 /// XCDR key hash of a type whose only key is its first member, a uint64: the key serialised
 /// big-endian (8 bytes) and zero-padded to 16. The key is read from the sample honouring the

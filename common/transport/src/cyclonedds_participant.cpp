@@ -314,14 +314,9 @@ std::string domain_xml(const TransportConfig& config) {
   // 1 MiB sample from ~1.4 ms to ~0.5 ms one way (Fast DDS uses 64 KiB messages by default too).
   if (config.loopback_only) xml += "<MaxMessageSize>65000B</MaxMessageSize><FragmentSize>62000B</FragmentSize>";
   xml += "</General>";
-  // Unicast peers as with Fast DDS: 127.0.0.1 unless bound to named interfaces, the configured
-  // peers, and this computer's own interfaces (its other processes).
-  std::vector<std::string> peers = config.peers;
-  if (config.interfaces.empty()) peers.emplace_back("127.0.0.1");
-  peers.insert(peers.end(), config.interfaces.begin(), config.interfaces.end());
   xml += "<Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>" +
          std::to_string(config.max_participants) + "</MaxAutoParticipantIndex><Peers>";
-  for (const std::string& a : peers) xml += "<Peer address=\"" + a + "\"/>";
+  for (const std::string& a : discovery_peers(config)) xml += "<Peer address=\"" + a + "\"/>";
   xml += "</Peers></Discovery>";
   const std::string bytes = std::to_string(config.socket_buffer_bytes) + "B";
   xml += "<Internal><SocketReceiveBufferSize max=\"" + bytes + "\"/><SocketSendBufferSize max=\"" + bytes +

@@ -198,12 +198,8 @@ class Context {
       shm->maxInitialPeersRange = static_cast<uint32_t>(config.max_participants);
       pqos.transport().user_transports.push_back(shm);
     }
-    // Port 0: every participant id in range. 127.0.0.1 unless DDS is bound to named interfaces;
-    // then the configured peers and this computer's own interfaces (its other processes).
-    std::vector<std::string> peers = config.peers;
-    if (config.interfaces.empty()) peers.emplace_back("127.0.0.1");
-    peers.insert(peers.end(), config.interfaces.begin(), config.interfaces.end());
-    for (const std::string& address : peers) {
+    // Port 0: every participant id in range.
+    for (const std::string& address : discovery_peers(config)) {
       rtps::Locator_t peer;
       rtps::IPLocator::setIPv4(peer, address);
       pqos.wire_protocol().builtin.initialPeersList.push_back(peer);
