@@ -92,6 +92,21 @@ TEST(SimScenario, WorldSeedFixesTheWorldSeedTheMotion) {
   EXPECT_THROW(make_scenario("mall", 1, 1), std::invalid_argument);
 }
 
+TEST(SimScenario, AWalkStartedAlongThePathIsInTheSameWorldAndFrame) {
+  // --start-at: the same boxes, the walk starts at rest where the full path passes that far along,
+  // and goes on along it; the other walk's motion is its own (--seed).
+  const Scenario full = make_scenario("corridor", 3, 3), later = make_scenario("corridor", 3, 5, kStartTime, 1, 40.0);
+  EXPECT_TRUE(same_boxes(full.world, later.world));
+  const TrajectoryState s0 = later.trajectory->state(later.trajectory->t_begin());
+  EXPECT_LT((s0.p - full.trajectory->path().at(40.0).c).norm(), 1e-9);
+  EXPECT_LT(s0.v.norm(), 1e-12);  // at rest
+  EXPECT_NEAR(later.trajectory->path().u_end(), full.trajectory->path().u_end() - 40.0, 1e-9);
+  const double t_end = later.trajectory->t_end();
+  EXPECT_LT((later.trajectory->state(t_end).p - full.trajectory->state(full.trajectory->t_end()).p).norm(), 1e-6);
+  EXPECT_THROW(make_scenario("corridor", 3, 5, kStartTime, 1, 1e4), std::invalid_argument);
+  EXPECT_THROW(make_scenario("corridor", 3, 5, kStartTime, 1, -1.0), std::invalid_argument);
+}
+
 TEST(SimScenario, ExtrinsicIsTheMid360OffsetWithASmallRotation) {
   const Eigen::Isometry3d T = default_T_imu_lidar();
   EXPECT_EQ(T.translation(), Eigen::Vector3d(-0.011, -0.02329, 0.04412));

@@ -6,6 +6,7 @@
 // within the map's own error there.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -22,6 +23,7 @@ namespace {
 namespace fs = std::filesystem;
 const std::string kFirst = std::string(FUSE_TEST_DATA) + "/corridor60";     // seed 1, world 1
 const std::string kSecond = std::string(FUSE_TEST_DATA) + "/corridor60_b";  // seed 2, world 1
+const std::string kElsewhere = std::string(FUSE_TEST_DATA) + "/corridor_start25";  // seed 5, world 1, 25 m along
 const std::string kConfig = std::string(FUSE_CONFIG_DIR) + "/mid360.yaml";
 
 std::string bytes_of(const std::string& path) {
@@ -50,7 +52,9 @@ TEST(Localization, OnASavedMapTheMapStaysUnchangedAndTheErrorDoesNotGrow) {
   const std::string before = bytes_of(map_file);
   ASSERT_GT(before.size(), 1000u);
 
-  RunnerConfig localization = load_runner_config(kConfig, {"estimator.map.mode=localization"});
+  // Both traversals start at the same place: the second starts at the map's origin (no search).
+  RunnerConfig localization =
+      load_runner_config(kConfig, {"estimator.map.mode=localization", "estimator.global_localization.enabled=false"});
   localization.load_map = map_file;
   const RunSummary loc = run_offline(localization, kSecond + "/recording.mcap", "");
   ASSERT_TRUE(loc.error.empty()) << loc.error;
@@ -87,6 +91,111 @@ TEST(Localization, OnASavedMapTheMapStaysUnchangedAndTheErrorDoesNotGrow) {
   RecordProperty("max_error_last_third_map_m", std::to_string(map_last));
   EXPECT_LT(loc_last, map_last + 0.02) << "the localization drifts away from the map";
   EXPECT_LT(loc_last, 0.1);
+}
+
+/// A map of the first traversal, saved once for the tests below, with the truth-to-map transform.
+struct SavedMap {
+  std::string file;
+  eval::Similarity3 gt_to_map;
+};
+const SavedMap& saved_map() {
+  static const SavedMap map = [] {
+    SavedMap m;
+    m.file = std::string(FUSE_TEST_OUT) + "/start-anywhere-map.snapshot";
+    fs::create_directories(FUSE_TEST_OUT);
+    RunnerConfig mapping = load_runner_config(kConfig);
+    mapping.save_map = m.file;
+    const RunSummary first = run_offline(mapping, kFirst + "/recording.mcap", "");
+    EXPECT_TRUE(first.error.empty()) << first.error;
+    const auto assoc = eval::associate_by_time(eval::read_tum(kFirst + "/groundtruth.tum"), first.trajectory);
+    m.gt_to_map = eval::align(assoc.estimate, assoc.reference, eval::AlignmentMode::kSE3);
+    return m;
+  }();
+  return map;
+}
+
+/// The walk that starts 25 m along the path, localized on the saved map; its largest position
+/// error in the map frame (the truth brought there by the first traversal's alignment, not by its
+/// own), over the poses it wrote.
+struct Elsewhere {
+  RunSummary run;
+  double max_error = 0.0;
+};
+Elsewhere run_elsewhere(const std::optional<InitialPose>& pose) {
+  const SavedMap& map = saved_map();
+  // A search of the whole map every 3 s of data rather than every second: the same decisions,
+  // a third of the time.
+  RunnerConfig c = load_runner_config(kConfig, {"estimator.map.mode=localization", "estimator.global_localization.blocking=true",
+                                                "estimator.global_localization.period=3", "estimator.global_localization.min_travel=4"});
+  c.load_map = map.file;
+  c.initial_pose = pose;
+  Elsewhere e;
+  e.run = run_offline(c, kElsewhere + "/recording.mcap", "");
+  if (e.run.trajectory.empty()) return e;
+  for (double err : errors_in_map_frame(e.run.trajectory, eval::read_tum(kElsewhere + "/groundtruth.tum"), map.gt_to_map)) {
+    e.max_error = std::max(e.max_error, err);
+  }
+  return e;
+}
+
+/// The IMU's true pose at the walk's start in the map frame, moved by (dx, dy) and turned by dyaw.
+InitialPose true_start(double dx, double dy, double dyaw, double std_xy, double std_yaw) {
+  const eval::Trajectory gt = eval::transform(eval::read_tum(kElsewhere + "/groundtruth.tum"), saved_map().gt_to_map);
+  const Eigen::Matrix3d R = gt.front().q.toRotationMatrix();
+  InitialPose p;
+  p.position = gt.front().p + Eigen::Vector3d(dx, dy, 0.0);
+  p.yaw = std::atan2(R(1, 0), R(0, 0)) + dyaw;
+  p.std_xy = std_xy;
+  p.std_yaw = std_yaw;
+  return p;
+}
+
+TEST(StartAnywhere, AnInitialPoseNearTheTruthIsCheckedAndUsed) {
+  ASSERT_TRUE(fs::exists(kFirst + "/recording.mcap") && fs::exists(kElsewhere + "/recording.mcap")) << "fixtures missing";
+  const std::string before = bytes_of(saved_map().file);
+  // 0.5 m and 5° off, given with σ of 1 m and 10° ("2D Pose Estimate").
+  const Elsewhere e = run_elsewhere(true_start(0.5, -0.3, 5.0 * M_PI / 180.0, 1.0, 10.0 * M_PI / 180.0));
+  EXPECT_TRUE(e.run.error.empty()) << e.run.error;
+  EXPECT_FALSE(e.run.diverged) << e.run.divergence;
+  ASSERT_TRUE(e.run.localized) << e.run.localization;
+  EXPECT_FALSE(e.run.initial_pose_refused);
+  ASSERT_GT(e.run.trajectory.size(), 200u);
+  RecordProperty("max_error_m", std::to_string(e.max_error));
+  RecordProperty("localized_after_s", std::to_string(e.run.localized_after_s));
+  // Unaligned, in the map's frame: within the map's own error (the first traversal drifts by a
+  // few centimetres over this stretch) and the search's cell.
+  EXPECT_LT(e.max_error, 0.25);
+  EXPECT_EQ(bytes_of(saved_map().file), before) << "localization changed the saved map";
+}
+
+TEST(StartAnywhere, AWrongInitialPoseIsRefusedNotTaken) {
+  ASSERT_TRUE(fs::exists(kFirst + "/recording.mcap") && fs::exists(kElsewhere + "/recording.mcap")) << "fixtures missing";
+  // 2 m and 30° off, given with σ of 0.3 m and 3°: nothing within its window fits.
+  const Elsewhere e = run_elsewhere(true_start(2.0, 0.0, 30.0 * M_PI / 180.0, 0.3, 3.0 * M_PI / 180.0));
+  EXPECT_TRUE(e.run.initial_pose_refused) << e.run.localization;
+  // After the refusal the whole map is searched: a location found must be the right one; none is
+  // an exit code 3 ("not localized"), never poses in a wrong place.
+  if (e.run.localized) {
+    EXPECT_LT(e.max_error, 0.25);
+  } else {
+    EXPECT_TRUE(e.run.diverged);
+    EXPECT_NE(e.run.divergence.find("not localized"), std::string::npos) << e.run.divergence;
+    EXPECT_TRUE(e.run.trajectory.empty());
+  }
+}
+
+TEST(StartAnywhere, WithoutAPoseAWrongLocationIsNeverReported) {
+  ASSERT_TRUE(fs::exists(kFirst + "/recording.mcap") && fs::exists(kElsewhere + "/recording.mcap")) << "fixtures missing";
+  const Elsewhere e = run_elsewhere(std::nullopt);
+  RecordProperty("localized", e.run.localized ? "yes" : "no");
+  RecordProperty("searches", std::to_string(e.run.searches));
+  EXPECT_GT(e.run.searches, 0u);
+  if (e.run.localized) {
+    EXPECT_LT(e.max_error, 0.25);
+  } else {
+    EXPECT_TRUE(e.run.diverged);
+    EXPECT_TRUE(e.run.trajectory.empty());
+  }
 }
 
 }  // namespace

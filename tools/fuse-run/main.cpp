@@ -1,7 +1,11 @@
 // fuse-run: single-process offline runner.
 //
 //   fuse-run --config FILE --input INPUT --out DIR [--set key=value]... [--log-level LEVEL]
-//            [--load-map SNAPSHOT] [--save-map SNAPSHOT]      (--help lists them; --version)
+//            [--load-map SNAPSHOT [--initial-pose X Y Z YAW_DEG [--pose-std-xy M] [--pose-std-yaw DEG]]]
+//            [--save-map SNAPSHOT]                            (--help lists them; --version)
+//
+// With --load-map the run finds its start in the map by itself (estimator.global_localization;
+// around --initial-pose when given), and writes its poses in the map's frame once found.
 //
 // INPUT is an MCAP recording (file) or a sequence directory (folder). A calib.yaml in a sequence
 // directory (or the calibration record of a recording) overrides the config's extrinsic.
@@ -12,6 +16,7 @@
 // 2 bad arguments or config (an empty config file too), 3 the run diverged: the estimator gave up
 // (DivergenceError) or was lost at the end of the run or for longer than
 // estimator.tracking.max_lost_s (the reason is printed).
+#include <cmath>
 #include <iomanip>
 #include <iostream>
 #include <optional>
@@ -29,6 +34,8 @@ constexpr int kExitInput = 1, kExitUsage = 2, kExitDiverged = 3;
 int main(int argc, char** argv) {
   std::string config_file, input, out_dir, level = "info", load_map, save_map;
   std::vector<std::string> overrides;
+  std::vector<double> initial_pose;
+  double pose_std_xy = 1.0, pose_std_yaw_deg = 10.0;
   const auto app = fuse::cli::make_app(
       "fuse-run",
       "Single-process offline runner: the estimator on an MCAP recording or a sequence directory (its "
@@ -48,6 +55,18 @@ int main(int argc, char** argv) {
   app->add_option("--log-level", level, "trace|debug|info|warn|error (default info)")->type_name("L");
   app->add_option("--load-map", load_map, "start from this map snapshot")->type_name("SNAPSHOT");
   app->add_option("--save-map", save_map, "write the map to this snapshot at the end")->type_name("SNAPSHOT");
+  auto* pose_opt = app->add_option("--initial-pose", initial_pose,
+                                   "with --load-map: the IMU's pose in the map at the start (metres, heading in degrees "
+                                   "about z; roll and pitch come from gravity); it is checked against the map, and refused "
+                                   "when nothing near it fits")
+                       ->type_name("X Y Z YAW_DEG")
+                       ->expected(4);
+  app->add_option("--pose-std-xy", pose_std_xy, "σ of the initial pose's horizontal position in m (default 1)")
+      ->type_name("M")
+      ->needs(pose_opt);
+  app->add_option("--pose-std-yaw", pose_std_yaw_deg, "σ of the initial pose's heading in degrees (default 10)")
+      ->type_name("DEG")
+      ->needs(pose_opt);
   if (const std::optional<int> code = fuse::cli::parse(*app, argc, argv)) return *code;
   try {
     fuse::set_log_level(level);
@@ -64,6 +83,23 @@ int main(int argc, char** argv) {
   }
   config.load_map = load_map;
   config.save_map = save_map;
+  if (!initial_pose.empty()) {
+    if (initial_pose.size() != 4) return fuse::cli::usage_error(*app, "--initial-pose: expected four numbers: X Y Z YAW_DEG");
+    if (load_map.empty()) return fuse::cli::usage_error(*app, "--initial-pose: needs --load-map (a pose in which map?)");
+    for (double v : initial_pose) {
+      if (!std::isfinite(v)) return fuse::cli::usage_error(*app, "--initial-pose: every value must be a finite number");
+    }
+    if (!(pose_std_xy > 0.0 && pose_std_xy <= 100.0)) return fuse::cli::usage_error(*app, "--pose-std-xy: must be in (0, 100] m");
+    if (!(pose_std_yaw_deg > 0.0 && pose_std_yaw_deg <= 180.0)) {
+      return fuse::cli::usage_error(*app, "--pose-std-yaw: must be in (0, 180] degrees");
+    }
+    fuse::InitialPose p;
+    p.position = Eigen::Vector3d(initial_pose[0], initial_pose[1], initial_pose[2]);
+    p.yaw = initial_pose[3] * M_PI / 180.0;
+    p.std_xy = pose_std_xy;
+    p.std_yaw = pose_std_yaw_deg * M_PI / 180.0;
+    config.initial_pose = p;
+  }
   if (const std::string why = fuse::prepare_output_dir(out_dir); !why.empty()) {
     std::cerr << "fuse-run: --out: " << why << "\n";
     return kExitInput;
@@ -82,6 +118,15 @@ int main(int argc, char** argv) {
                 << e.t_begin << " for " << std::setprecision(2) << e.duration << " s: " << e.reason << "\n"
                 << std::defaultfloat;
     }
+  }
+  if (s.searched_map) {
+    std::cout << "localization: " << (s.localized ? "localized" : "not localized") << " (" << s.localization << ")\n"
+              << "localization_searches: " << s.searches << "\n";
+    if (s.localized) {
+      std::cout << "localization_t: " << std::fixed << std::setprecision(3) << s.localized_t << std::defaultfloat
+                << "\nlocalization_after_s: " << s.localized_after_s << "\n";
+    }
+    if (s.initial_pose_refused) std::cout << "warning: the initial pose was refused: nothing near it fits the map\n";
   }
   if (!s.error.empty()) {
     fuse::logger("run")->error("{}", s.error);

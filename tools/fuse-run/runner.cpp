@@ -141,9 +141,48 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
     }
     std::vector<Eigen::Vector3f> points;
     map.for_each_chunk([&](const PointChunk& c) { points.insert(points.end(), c.points.begin(), c.points.end()); });
-    estimator.load_map(points);
     log->info("map {} loaded: {} points; map mode {}", config.load_map, points.size(), config.estimator.map.mode);
+    if (config.estimator.global_localization.enabled || config.initial_pose) {
+      try {
+        estimator.localize_in(std::move(points), config.initial_pose);
+      } catch (const std::invalid_argument& e) {
+        summary.error = std::string("cannot search the map: ") + e.what();
+        return summary;
+      }
+      summary.searched_map = true;
+      log->info("searching the map for the start{}", config.initial_pose ? " around the initial pose" : "");
+    } else {
+      estimator.load_map(points);  // the session starts at the map's origin
+    }
   }
+  // Poses taken before the run found itself in the map are kept with the T_M_S of their time and
+  // written in the map's frame once it is confirmed: T_M_S(final) · T_M_S(then)⁻¹ · pose.
+  struct Held {
+    StampedPose pose;
+    Eigen::Isometry3d T_then;
+    bool imu_rate;
+  };
+  std::vector<Held> held;
+  auto emit = [&](const StampedPose& pose, bool imu_rate) {
+    if (!estimator.localized()) {
+      held.push_back({pose, estimator.T_map_session(), imu_rate});
+      return;
+    }
+    if (!held.empty()) {
+      for (const Held& h : held) {
+        Eigen::Isometry3d T_WI = Eigen::Isometry3d::Identity();
+        T_WI.linear() = h.pose.q.toRotationMatrix();
+        T_WI.translation() = h.pose.p;
+        const Eigen::Isometry3d moved = estimator.T_map_session() * h.T_then.inverse() * T_WI;
+        const StampedPose p{h.pose.t, moved.translation(), Eigen::Quaterniond(moved.linear()).normalized()};
+        (h.imu_rate ? summary.trajectory_imu : summary.trajectory).push_back(p);
+      }
+      held.clear();
+      summary.localized = true;
+      summary.localized_t = pose.t;
+    }
+    (imu_rate ? summary.trajectory_imu : summary.trajectory).push_back(pose);
+  };
   io::SensorEvent ev;
   std::uint64_t scans_refused = 0;  ///< by the source's checks
   auto note_refused_scans = [&] {   // they arrived: time without a LiDAR update for the tracking status
@@ -160,7 +199,7 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
         ++summary.imu_samples;
         estimator.ingest(ev.imu);
         const StateQuery q = estimator.query(ev.imu.t);
-        if (q.ok()) summary.trajectory_imu.push_back(pose_of(q));
+        if (q.ok()) emit(pose_of(q), true);
         continue;
       }
       ++summary.scans;
@@ -172,7 +211,7 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
       status.push_back(estimator.tracking().status());
       if (report.updated) ++summary.scans_updated;
       summary.scan_ms.push_back(report.ms_total);
-      summary.trajectory.push_back(pose_of(q));
+      emit(pose_of(q), false);
     }
     note_refused_scans();
   } catch (const DivergenceError& e) {
@@ -192,6 +231,19 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
     meta.mode = config.estimator.map.mode;
     MapStorage::write_snapshot_file(config.save_map, map, meta);
     log->info("map saved to {}: {} points", config.save_map, map.num_points());
+  }
+  if (const MapLocalization* L = estimator.map_localization()) {
+    summary.searches = L->searches();
+    summary.localization = L->describe();
+    summary.initial_pose_refused = L->initial_pose_refused();
+    if (summary.localized && !summary.trajectory.empty()) {
+      summary.localized_after_s = summary.localized_t - summary.trajectory.front().t;
+    }
+    if (!summary.localized && summary.error.empty() && !summary.diverged && estimator.initialised()) {
+      // Never found in the map: no pose in its frame was produced. Not silent: exit 3.
+      summary.diverged = true;
+      summary.divergence = "not localized in the loaded map by the end of the run (" + L->describe() + ")";
+    }
   }
   summary.input_rejected = source->stats().rejected;
   summary.estimator_counts = estimator.counters();

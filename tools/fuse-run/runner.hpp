@@ -3,6 +3,7 @@
 #pragma once
 
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,9 @@ struct RunnerConfig {
   /// Map files (command line, not YAML): a snapshot to start from (e.g. to localize on it with
   /// estimator.map.mode=localization) and one to write the final map to. Empty: none.
   std::string load_map, save_map;
+  /// The IMU's pose in the loaded map at the start, with its σ (--initial-pose): the search for
+  /// the start is confined around it. Without it, estimator.global_localization decides.
+  std::optional<InitialPose> initial_pose;
   void load(ConfigNode& root);
 };
 
@@ -37,6 +41,14 @@ struct RunSummary {
   std::string tracking_reason;
   std::vector<TrackingMonitor::Episode> episodes;
   double relocalizing_s = 0.0, lost_s = 0.0;
+  /// With a loaded map searched for the start: whether and when the run found itself in it, the
+  /// searches it took, and the last search's verdict. Poses before that are written in the map's
+  /// frame once it is found (the session's own odometry moved by T_M_S), and not at all if never.
+  bool searched_map = false, localized = false;
+  double localized_t = 0.0, localized_after_s = 0.0;
+  std::size_t searches = 0;
+  std::string localization;       ///< MapLocalization::describe at the end
+  bool initial_pose_refused = false;
   /// The run diverged by a measure computable without truth (DivergenceError, lost at the end or
   /// for longer than estimator.tracking.max_lost_s): fuse-run exits 3.
   bool diverged = false;

@@ -99,7 +99,56 @@ ScanReport Estimator::ingest(const LidarScan& scan) {
   if (monitor_.wants_relocalisation()) tracker_.widen(scan.t_end);
   report = updater_.process(scan, history);
   monitor_.on_scan(report);
+  if (localization_ && !localized()) localize_step(report);
   return report;
+}
+
+void Estimator::localize_in(std::vector<Eigen::Vector3f> points, const std::optional<InitialPose>& initial_pose) {
+  localization_ = std::make_unique<MapLocalization>(config_.global_localization, std::move(points), initial_pose);
+  T_map_session_.setIdentity();
+  // The session maps its own surroundings in its own frame until it knows where it is.
+  updater_.restart_map({}, "mapping");
+}
+
+void Estimator::localize_step(const ScanReport& report) {
+  MapLocalization& L = *localization_;
+  StateHistory& history = tracker_.history();
+  const double t = report.t;
+  if (L.state() == MapLocalization::State::kConfirming) {
+    // The location holds if the scans after it fit the saved map (tracking.min_fit), 4 of 5 at least.
+    ++confirm_scans_;
+    if (!report.updated || report.match_fit < config_.tracking.min_fit) ++confirm_poor_;
+    if (t < L.confirm_until()) return;
+    if (5 * confirm_poor_ <= confirm_scans_) {
+      L.confirmed(t);
+      updater_.set_map_mode(config_.map.mode);
+      counters_.count("global_localized", fmt::format("located in the saved map at t={:.3f}", t));
+      return;
+    }
+    const std::string why = fmt::format("{} of {} scans after it did not fit the map", confirm_poor_, confirm_scans_);
+    counters_.count("global_localization_dropped", "global localization dropped: " + why);
+    history.transform_world(T_map_session_.inverse());
+    T_map_session_.setIdentity();
+    updater_.restart_map(L.session_points(), "mapping");
+    L.dropped(t, why);
+    return;
+  }
+  const std::optional<Eigen::Isometry3d> T =
+      L.on_scan(t, updater_.last_world_points(), updater_.last_T_world_lidar().translation());
+  if (!T) return;
+  // Into the map's frame: the history by T_M_S, the saved map for the session's (not extended
+  // while the location is being confirmed), and a prior as wide as the search's step (a cell in
+  // position, about a degree of heading) so that the next scan is re-localised against the map.
+  history.transform_world(*T);
+  T_map_session_ = *T;
+  updater_.restart_map(L.map_points(), "localization");
+  const double r = config_.global_localization.resolution;
+  StateVector q = StateVector::Zero();
+  q.segment<3>(Idx::kPos).setConstant(r * r);
+  q.segment<3>(Idx::kRot).setConstant(0.03 * 0.03);
+  history.inflate(t, q);
+  L.taken(t);
+  confirm_scans_ = confirm_poor_ = 0;
 }
 
 }  // namespace fuse

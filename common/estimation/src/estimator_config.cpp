@@ -100,6 +100,7 @@ void EstimatorConfig::load(ConfigNode& node) {
   load_section(node, "recovery", recovery);
   load_section(node, "clock", clock);
   load_section(node, "tracking", tracking);
+  load_section(node, "global_localization", global_localization);
   node.finish();
 }
 

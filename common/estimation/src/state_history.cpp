@@ -184,6 +184,26 @@ void StateHistory::inflate(double t, const StateVector& q) {
   if (stale_entries() <= kEagerRefresh) refresh_to(entries_.size() - 1);
 }
 
+void StateHistory::transform_world(const Eigen::Isometry3d& T_new_old) {
+  // x' = T ⊕ x: p' = R p + t, v' = R v, R'_WI = R R_WI, g' = R g. The error state's position,
+  // velocity and gravity parts are world-frame vectors and turn with R (δp' = R δp); rotation
+  // errors are body-frame (δθ_WI) and stay. Gravity's 2-D tangent error is left as it is: the
+  // transforms used turn about the vertical, which keeps g and its tangent basis.
+  if (entries_.empty()) return;
+  refresh_to(entries_.size() - 1);
+  const Eigen::Matrix3d R = T_new_old.linear();
+  StateCovariance J = StateCovariance::Identity();
+  J.block<3, 3>(Idx::kPos, Idx::kPos) = R;
+  J.block<3, 3>(Idx::kVel, Idx::kVel) = R;
+  for (Entry& e : entries_) {
+    e.x.p = R * e.x.p + T_new_old.translation();
+    e.x.v = R * e.x.v;
+    e.x.R = so3::Normalize(R * e.x.R);
+    e.x.g = R * e.x.g;
+    e.P = J * e.P * J.transpose();
+  }
+}
+
 StateQuery StateHistory::query(double t) const {
   StateQuery q;
   q.t = t;

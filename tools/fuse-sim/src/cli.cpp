@@ -28,7 +28,7 @@ class BadValue : public std::runtime_error {
 
 /// The options as typed: CLI11 stores the text, the checks below turn it into SimOptions.
 struct Given {
-  std::string scenario, seed, world_seed, duration, laps, lidar, format, out;
+  std::string scenario, seed, world_seed, duration, laps, start_at, lidar, format, out;
 };
 
 bool given(const CLI::App& app, const char* flag) { return app.count(flag) > 0; }
@@ -64,6 +64,10 @@ void add_options(CLI::App& app, Given& g) {
       ->type_name("S");
   app.add_option("--laps", g.laps, "corridor: walk round the loop N times (default 1, at most 100; e.g. a soak test)")
       ->type_name("N");
+  app.add_option("--start-at", g.start_at,
+                 "start the walk D metres along the scenario's path, at rest (default 0); the world, its frame and "
+                 "the ground truth's frame are those of --world-seed, so a map made by one walk serves another")
+      ->type_name("D");
   app.add_option("--lidar", g.lidar, "mid360 (default) or spinning32")->type_name("MODEL");
   app.add_option("--format", g.format, "mcap (DIR/recording.mcap, default) or seqdir (a sequence directory in DIR)")
       ->type_name("mcap|seqdir");
@@ -102,6 +106,14 @@ void check_numbers(const CLI::App& app, const Given& g, SimOptions& o) {
     const std::uint64_t laps = parse_u64("--laps", g.laps);
     if (laps < 1 || laps > kMaxLaps) throw BadValue("--laps: must be between 1 and " + std::to_string(kMaxLaps));
     o.laps = static_cast<int>(laps);
+  }
+  if (given(app, "--start-at")) {
+    errno = 0;
+    char* end = nullptr;
+    const double v = std::strtod(g.start_at.c_str(), &end);
+    if (g.start_at.empty() || end == g.start_at.c_str() || *end != '\0' || errno == ERANGE || !std::isfinite(v) || v < 0.0)
+      throw BadValue("--start-at: expected a non-negative number of metres, got '" + g.start_at + "'");
+    o.start_at_m = v;
   }
 }
 

@@ -72,8 +72,15 @@ Path::Path(const std::vector<PathKnot>& knots, const std::vector<double>& length
   }
 }
 
+Path Path::from(double u0) const {
+  if (!(u0 >= 0.0) || !(u0 < u_end())) throw std::invalid_argument("Path::from: the start must lie on the path");
+  Path p = *this;
+  p.offset_ += u0;
+  return p;
+}
+
 PathPoint Path::at(double u) const {
-  const double uc = std::clamp(u, 0.0, u_end());
+  const double uc = std::clamp(u, 0.0, u_end()) + offset_;
   auto it = std::upper_bound(u_start_.begin(), u_start_.end(), uc);
   const std::size_t k = it == u_start_.begin() ? 0 : static_cast<std::size_t>(it - u_start_.begin()) - 1;
   const double L = lengths_[k];
@@ -108,8 +115,10 @@ double Path::arc_length() const {
     for (int j = 0; j < kArcLengthSubdivisions; ++j) {
       const double mid = u_start_[k] + (j + 0.5) * h;
       for (int g = 0; g < 4; ++g)
-        for (double sign : {-1.0, 1.0})
-          total += 0.5 * h * kGlWeights[g] * at(mid + sign * 0.5 * h * kGlNodes[g]).c1.norm();
+        for (double sign : {-1.0, 1.0}) {
+          const double u = mid + sign * 0.5 * h * kGlNodes[g];  // on the original path
+          if (u >= offset_) total += 0.5 * h * kGlWeights[g] * at(u - offset_).c1.norm();
+        }
     }
   }
   return total;

@@ -22,7 +22,8 @@ const std::vector<std::string>& scenario_names() {
   return names;
 }
 
-Scenario make_scenario(const std::string& name, std::uint64_t world_seed, std::uint64_t seed, double t0, int laps) {
+Scenario make_scenario(const std::string& name, std::uint64_t world_seed, std::uint64_t seed, double t0, int laps,
+                       double start_at) {
   Scenario s;
   s.name = name;
   Rng world_rng(world_seed, Stream::kWorld);
@@ -41,6 +42,18 @@ Scenario make_scenario(const std::string& name, std::uint64_t world_seed, std::u
     detail::build_campus(s, world_rng, motion_rng, t0);
   else
     throw std::invalid_argument("unknown scenario '" + name + "' (expected corridor, stairs, room or campus)");
+  if (start_at != 0.0) {
+    // The same world and path; the walk starts start_at along it, at rest, with this seed's motion.
+    const Trajectory& full = *s.trajectory;
+    if (!(start_at > 0.0) || !(start_at < full.path().u_end())) {
+      throw std::invalid_argument("start_at: must lie on the path (0 to " + std::to_string(full.path().u_end()) + " m)");
+    }
+    const Path rest = full.path().from(start_at);
+    const TimeLawConfig law = full.time_law().config();
+    const MotionConfig motion = full.motion();
+    s.trajectory.emplace(rest, law, motion, t0);
+    s.parameters.emplace_back("start_at_m", start_at);
+  }
   s.world.build();
   return s;
 }

@@ -88,6 +88,7 @@ void write_scenario_yaml(const std::string& file, const SimOptions& o, const Sce
   y << YAML::Key << "seed" << YAML::Value << o.seed;
   y << YAML::Key << "world_seed" << YAML::Value << o.world_seed;
   y << YAML::Key << "laps" << YAML::Value << o.laps;
+  y << YAML::Key << "start_at_m" << YAML::Value << o.start_at_m;
   y << YAML::Key << "format" << YAML::Value << (o.format == OutputFormat::kMcap ? "mcap" : "seqdir");
   y << YAML::Key << "time" << YAML::Value << YAML::BeginMap;
   y << YAML::Key << "t0_s" << YAML::Value << tr.t_begin() << YAML::Key << "duration_s" << YAML::Value << f.duration_s
@@ -174,7 +175,7 @@ SimSummary run_simulation(const SimOptions& o) {
   const auto log = fuse::logger("sim");
   const auto wall_start = std::chrono::steady_clock::now();
   prepare_out_dir(o.out_dir);
-  const Scenario sc = make_scenario(o.scenario, o.world_seed, o.seed, kStartTime, o.laps);
+  const Scenario sc = make_scenario(o.scenario, o.world_seed, o.seed, kStartTime, o.laps, o.start_at_m);
   const Trajectory& tr = *sc.trajectory;
   const LidarConfig lidar = LidarConfig::from_name(o.lidar);
   const ImuNoiseConfig imu_cfg;

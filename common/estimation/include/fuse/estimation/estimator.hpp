@@ -13,10 +13,13 @@
 
 #include <cstdint>
 #include <map>
+#include <memory>
+#include <optional>
 #include <string>
 
 #include "fuse/estimation/estimator_config.hpp"
 #include "fuse/estimation/lidar_updater.hpp"
+#include "fuse/estimation/map_localization.hpp"
 #include "fuse/estimation/state_tracker.hpp"
 #include "fuse/estimation/tracking_monitor.hpp"
 
@@ -46,6 +49,18 @@ class Estimator {
     updater_.reset_map();
     updater_.map().insert(points);
   }
+  /// Starts the session anywhere in a saved map (world-frame points): the estimator runs in its own
+  /// frame S and searches the map for itself (MapLocalization), around `initial_pose` when given;
+  /// once found, its history moves into the map's frame, the saved map replaces the session's
+  /// and the next estimator.global_localization.confirm_s of scans must fit it. Nothing is written
+  /// to the map until then. Throws std::invalid_argument when the map cannot be searched.
+  void localize_in(std::vector<Eigen::Vector3f> points, const std::optional<InitialPose>& initial_pose = std::nullopt);
+  /// The search for the start in a saved map (nullptr without localize_in).
+  const MapLocalization* map_localization() const { return localization_.get(); }
+  /// T_M_S: where the session frame lies in the saved map's (identity until a location is taken).
+  const Eigen::Isometry3d& T_map_session() const { return T_map_session_; }
+  /// In the saved map's frame and confirmed there (always, without localize_in).
+  bool localized() const { return !localization_ || localization_->state() == MapLocalization::State::kLocalized; }
   const SpatialIndex& map() const { return updater_.map(); }
   /// Counts of refused and flagged input, from both sides.
   std::map<std::string, std::uint64_t> counters() const;
@@ -62,6 +77,9 @@ class Estimator {
  private:
   /// Hands the tracker's gap, clock-step and restart events to the monitor.
   void forward_events();
+  /// After a scan's LiDAR step while localize_in's search runs: feeds it, takes a location it
+  /// found (moving the history and the map), and confirms or drops a location taken.
+  void localize_step(const ScanReport& report);
 
   EstimatorConfig config_;
   StateTracker tracker_;
@@ -69,6 +87,9 @@ class Estimator {
   TrackingMonitor monitor_;
   TimeGate scan_gate_;
   Counters counters_;  ///< scan checks
+  std::unique_ptr<MapLocalization> localization_;
+  Eigen::Isometry3d T_map_session_ = Eigen::Isometry3d::Identity();
+  std::size_t confirm_scans_ = 0, confirm_poor_ = 0;  ///< scans since a location was taken, and those not fitting
 };
 
 /// Checks a scan before the LiDAR step: its times, the state's initialisation, and its end against

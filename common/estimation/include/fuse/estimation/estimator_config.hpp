@@ -10,6 +10,7 @@
 #include "fuse/association/spatial_index.hpp"
 #include "fuse/core/config.hpp"
 #include "fuse/core/time_gate.hpp"
+#include "fuse/estimation/global_localizer.hpp"
 #include "fuse/estimation/imu_propagation.hpp"
 #include "fuse/estimation/point_to_plane_model.hpp"
 #include "fuse/estimation/state_history.hpp"
@@ -169,6 +170,7 @@ struct EstimatorConfig {
   RecoveryConfig recovery;
   TimeGateConfig clock;      ///< time checks of the IMU and scan streams
   TrackingConfig tracking;   ///< tracking / relocalizing / lost
+  GlobalLocalizationConfig global_localization;  ///< finding the start in a saved map
   /// Reads the `estimator` section of a config file (unknown keys are refused).
   void load(ConfigNode& node);
 };

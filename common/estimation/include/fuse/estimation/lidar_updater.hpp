@@ -50,6 +50,15 @@ class LidarUpdater {
   /// Starts over with an empty map (a replica about to be rebuilt from the map server).
   void reset_map() { map_ = make_spatial_index(config_.index); }
   const SpatialIndex& map() const { return *map_; }
+  /// Starts over on these world-frame points with this map mode (a session moving into a saved
+  /// map's frame, or back out of it): nothing of the previous map or its hold is kept.
+  void restart_map(const std::vector<Eigen::Vector3f>& points, const std::string& mode) {
+    reset_map();
+    map_->insert(points);
+    set_map_mode(mode);
+    hold_from_.reset();
+    scans_without_constraints_ = 0;
+  }
   /// Replaces the map policy at run time (mapping | localization).
   void set_map_mode(const std::string& mode);
   std::string map_mode() const { return map_policy_->name(); }

@@ -113,6 +113,9 @@ class StateHistory {
   void inflate(double t, const StateVector& q);
 
   StateQuery query(double t) const;
+  /// Moves every entry into another world frame, x ← T_new_old ⊕ x (a session that found itself in
+  /// a saved map: MapLocalization). T's rotation must turn about the vertical (z).
+  void transform_world(const Eigen::Isometry3d& T_new_old);
   /// The end of the latest step between consecutive entries that is longer than max_step (coasted
   /// across a data gap: nothing measured the motion) and ends in (t0, t1) where the IMU resumed;
   /// t0 when there is none. Motion from before that time to t1 is not known. A step that ends at

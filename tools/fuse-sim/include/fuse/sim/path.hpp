@@ -33,8 +33,11 @@ class Path {
   /// Knots and the u-length of each piece (lengths.size() == knots.size() - 1, all > 0).
   Path(const std::vector<PathKnot>& knots, const std::vector<double>& lengths);
 
-  double u_end() const { return u_start_.empty() ? 0.0 : u_start_.back() + lengths_.back(); }
+  double u_end() const { return u_start_.empty() ? 0.0 : u_start_.back() + lengths_.back() - offset_; }
   PathPoint at(double u) const;  ///< u is clamped to [0, u_end]
+  /// The same curve from parameter u0 on (u0 in [0, u_end)): c'(u) = c(u0 + u). A walk that
+  /// starts part of the way along the scenario's path (fuse-sim --start-at).
+  Path from(double u0) const;
   static Heading heading(const PathPoint& point);
   /// Geometric length of the curve (Gauss-Legendre quadrature of |c'| on each piece).
   double arc_length() const;
@@ -44,6 +47,7 @@ class Path {
   using Coeffs = Eigen::Matrix<double, 3, 8>;  // c(s) = sum_i coeffs.col(i) s^i, s = u / length
   std::vector<Coeffs> coeffs_;
   std::vector<double> lengths_, u_start_;
+  double offset_ = 0.0;  ///< parameter of the original path where this one starts (from)
 };
 
 /// One polyline vertex: a corner rounded with radius `radius` (ignored at the two ends).

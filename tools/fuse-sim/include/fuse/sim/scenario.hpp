@@ -37,8 +37,10 @@ struct Scenario {
 const std::vector<std::string>& scenario_names();
 
 /// Builds a scenario (world built, ready to cast). Throws std::invalid_argument on an unknown name
-/// or on laps > 1 for a scenario whose path is not a loop (only the corridor's is).
+/// or on laps > 1 for a scenario whose path is not a loop (only the corridor's is). start_at > 0
+/// starts the walk that far (path parameter, metres on straight segments) along the path, at rest,
+/// in the same world frame; it throws when that leaves too little path for the speed ramps.
 Scenario make_scenario(const std::string& name, std::uint64_t world_seed, std::uint64_t seed,
-                       double t0 = kStartTime, int laps = 1);
+                       double t0 = kStartTime, int laps = 1, double start_at = 0.0);
 
 }  // namespace fuse::sim

@@ -17,6 +17,7 @@ struct SimOptions {
   std::uint64_t world_seed = 0;
   std::optional<double> duration_s;  ///< cut the scenario short (never lengthens it)
   int laps = 1;                      ///< times round a loop (corridor only)
+  double start_at_m = 0.0;           ///< start this far along the path (same world and frame)
   std::string lidar = "mid360";
   OutputFormat format = OutputFormat::kMcap;
   std::string out_dir;
