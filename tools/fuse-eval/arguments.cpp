@@ -26,6 +26,12 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
   app->add_option("--align", align, "ATE alignment: se3 (default, evo_ape -a), sim3 (-a -s), none")
       ->type_name("se3|sim3|none");
   app->add_flag("--json", a.json, "print one JSON object instead of 'name: value' lines");
+  app->add_option("--frame-of", a.frame_of,
+                  "bring the estimate into the reference frame with the SE(3) alignment of another run (its reference "
+                  "and estimate, e.g. the walk that made the map this run was localized on) instead of aligning it "
+                  "itself: the error of a localized run, unaligned")
+      ->type_name("GT EST")
+      ->expected(2);
   if (const std::optional<int> code = cli::parse(*app, argc, argv)) return code;
   try {
     a.format = eval::parse_trajectory_format(format);
@@ -39,6 +45,13 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
   }
   if (!std::isfinite(delta)) return cli::usage_error(*app, "--delta: not a finite number");
   if (!std::isfinite(t_max_diff)) return cli::usage_error(*app, "--t-max-diff: not a finite number");
+  if (!a.frame_of.empty()) {
+    if (a.frame_of.size() != 2) return cli::usage_error(*app, "--frame-of: expected two files: GT EST");
+    if (app->count("--align") > 0 && align != "none") {
+      return cli::usage_error(*app, "--frame-of: the estimate is not aligned itself (--align none or nothing)");
+    }
+    a.config.alignment = eval::AlignmentMode::kNone;
+  }
   a.config.rpe_delta_m = delta;
   a.config.max_time_difference = t_max_diff;
   a.config.association =

@@ -3,6 +3,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "fuse/eval/evaluate.hpp"
 #include "fuse/eval/trajectory.hpp"
@@ -15,6 +16,9 @@ struct Arguments {
   eval::TrajectoryFormat format = eval::TrajectoryFormat::kTum;
   eval::EvaluationConfig config;  ///< association follows the format: KITTI matches by index
   bool json = false;
+  /// --frame-of GT EST: the estimate is first moved by the SE(3) alignment of another run (EST
+  /// against GT), e.g. the walk that made the map it was localized on; then no alignment of its own.
+  std::vector<std::string> frame_of;
 };
 
 /// Parses and checks argv into `a`. std::nullopt: go on; otherwise the exit code to end with

@@ -1,12 +1,15 @@
 // fuse-eval: evaluates an estimated trajectory against ground truth with evo's ATE / RPE
 // definitions plus terminal drift (docs/evaluation-metrics.md). Prints "name: value" lines or
-// one JSON object on stdout; any bad input gives a message on stderr and exit code 2.
+// one JSON object on stdout; any bad input gives a message on stderr and exit code 2. With
+// --frame-of GT EST the estimate is put into the reference frame by another run's alignment (a
+// run localized on a saved map, in the frame of the walk that made the map) and not aligned itself.
 #include <exception>
 #include <optional>
 #include <iostream>
 #include <string>
 
 #include "arguments.hpp"
+#include "fuse/eval/alignment.hpp"
 #include "fuse/eval/evaluate.hpp"
 #include "fuse/eval/trajectory.hpp"
 
@@ -17,7 +20,16 @@ constexpr int kExitBadInput = 2;
 
 int run(const fuse::eval_tool::Arguments& args) {
   const fuse::eval::Trajectory gt = fuse::eval::read_trajectory(args.gt_path, args.format);
-  const fuse::eval::Trajectory est = fuse::eval::read_trajectory(args.est_path, args.format);
+  fuse::eval::Trajectory est = fuse::eval::read_trajectory(args.est_path, args.format);
+  if (!args.frame_of.empty()) {
+    // The other run's estimate -> reference transform, applied to this estimate as it is.
+    fuse::eval::EvaluationConfig other = args.config;
+    other.alignment = fuse::eval::AlignmentMode::kSE3;
+    const fuse::eval::EvaluationResult frame =
+        fuse::eval::evaluate(fuse::eval::read_trajectory(args.frame_of[0], args.format),
+                             fuse::eval::read_trajectory(args.frame_of[1], args.format), other);
+    est = fuse::eval::transform(est, frame.alignment);
+  }
   const fuse::eval::EvaluationResult result = fuse::eval::evaluate(gt, est, args.config);
   std::cout << (args.json ? fuse::eval::format_json(result) : fuse::eval::format_text(result));
   return kExitOk;

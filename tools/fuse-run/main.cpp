@@ -121,7 +121,7 @@ int main(int argc, char** argv) {
   }
   if (s.searched_map) {
     std::cout << "localization: " << (s.localized ? "localized" : "not localized") << " (" << s.localization << ")\n"
-              << "localization_searches: " << s.searches << "\n";
+              << "localization_searches: " << s.searches << "\nlocalization_search_s: " << s.search_s << "\n";
     if (s.localized) {
       std::cout << "localization_t: " << std::fixed << std::setprecision(3) << s.localized_t << std::defaultfloat
                 << "\nlocalization_after_s: " << s.localized_after_s << "\n";

@@ -234,6 +234,7 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
   }
   if (const MapLocalization* L = estimator.map_localization()) {
     summary.searches = L->searches();
+    summary.search_s = L->search_seconds();
     summary.localization = L->describe();
     summary.initial_pose_refused = L->initial_pose_refused();
     if (summary.localized && !summary.trajectory.empty()) {

@@ -47,6 +47,7 @@ struct RunSummary {
   bool searched_map = false, localized = false;
   double localized_t = 0.0, localized_after_s = 0.0;
   std::size_t searches = 0;
+  double search_s = 0.0;          ///< wall time of the searches (a thread of their own unless blocking)
   std::string localization;       ///< MapLocalization::describe at the end
   bool initial_pose_refused = false;
   /// The run diverged by a measure computable without truth (DivergenceError, lost at the end or

@@ -142,7 +142,7 @@ void Estimator::localize_step(const ScanReport& report) {
   history.transform_world(*T);
   T_map_session_ = *T;
   updater_.restart_map(L.map_points(), "localization");
-  const double r = config_.global_localization.resolution;
+  const double r = L.resolution();
   StateVector q = StateVector::Zero();
   q.segment<3>(Idx::kPos).setConstant(r * r);
   q.segment<3>(Idx::kRot).setConstant(0.03 * 0.03);

@@ -18,7 +18,7 @@ void GlobalLocalizationConfig::load(ConfigNode& node) {
   node.get("enabled", enabled).get("resolution", resolution).get("levels", levels).get("submap_radius", submap_radius);
   node.get("max_points", max_points).get("min_travel", min_travel).get("min_time", min_time).get("period", period).get("min_score", min_score);
   node.get("candidate_margin", candidate_margin).get("max_candidates", max_candidates).get("fit_residual", fit_residual);
-  node.get("min_fit", min_fit).get("window_min_fit", window_min_fit).get("ambiguity_ratio", ambiguity_ratio).get("ambiguity_margin", ambiguity_margin).get("distinct_distance", distinct_distance);
+  node.get("min_fit", min_fit).get("window_inner", window_inner).get("ambiguity_ratio", ambiguity_ratio).get("ambiguity_margin", ambiguity_margin).get("distinct_distance", distinct_distance);
   node.get("agreeing_searches", agreeing_searches);
   node.check(agreeing_searches >= 1 && agreeing_searches <= 10, "agreeing_searches", "must be in [1, 10]");
   node.get("distinct_angle", distinct_angle).get("map_margin", map_margin).get("max_cells", max_cells);
@@ -37,8 +37,7 @@ void GlobalLocalizationConfig::load(ConfigNode& node) {
   node.check(max_candidates >= 1 && max_candidates <= 256, "max_candidates", "must be in [1, 256]");
   node.check(std::isfinite(fit_residual) && fit_residual > 0.0 && fit_residual <= 2.0, "fit_residual", "must be in (0, 2] m");
   node.check(std::isfinite(min_fit) && min_fit > 0.0 && min_fit <= 1.0, "min_fit", "must be in (0, 1]");
-  node.check(std::isfinite(window_min_fit) && window_min_fit > 0.0 && window_min_fit <= 1.0, "window_min_fit",
-             "must be in (0, 1]");
+  node.check(std::isfinite(window_inner) && window_inner > 0.0 && window_inner <= 1.0, "window_inner", "must be in (0, 1]");
   node.check(std::isfinite(ambiguity_ratio) && ambiguity_ratio >= 1.0 && ambiguity_ratio <= 100.0, "ambiguity_ratio",
              "must be in [1, 100]");
   node.check(std::isfinite(ambiguity_margin) && ambiguity_margin >= 0.0 && ambiguity_margin < 1.0, "ambiguity_margin",
@@ -83,15 +82,23 @@ GlobalLocalizer::GlobalLocalizer(const GlobalLocalizationConfig& config, const s
     lo = lo.cwiseMin(p.cast<double>());
     hi = hi.cwiseMax(p.cast<double>());
   }
-  const double r = config_.resolution;
+  // The finest resolution whose grid fits in max_cells: a large map is searched coarser (the
+  // refinement restores the precision), never refused for its size alone.
+  double r = config_.resolution;
   origin_ = lo - Eigen::Vector3d::Constant(config_.map_margin);
   const Eigen::Vector3d extent = hi - lo + Eigen::Vector3d::Constant(2.0 * config_.map_margin);
-  const Eigen::Vector3d cells = (extent / r).array().ceil() + 1.0;
+  Eigen::Vector3d cells = (extent / r).array().ceil() + 1.0;
+  constexpr double kCoarsest = 4.0;  // m: beyond this a grid no longer tells places apart
+  while (cells.prod() > config_.max_cells && 2.0 * r <= kCoarsest) {
+    r *= 2.0;
+    cells = (extent / r).array().ceil() + 1.0;
+  }
   if (cells.prod() > config_.max_cells) {
     throw std::invalid_argument(fmt::format("global localization: the map's bounding box ({:.0f} x {:.0f} x {:.0f} m) needs "
-                                            "{:.3g} cells at resolution {} m, more than global_localization.max_cells {:.3g}",
+                                            "{:.3g} cells even at resolution {} m, more than global_localization.max_cells {:.3g}",
                                             extent.x(), extent.y(), extent.z(), cells.prod(), r, config_.max_cells));
   }
+  config_.resolution = r;
   size_ = cells.cast<int>();
   SpatialIndexConfig index_config;
   index_config.type = "kdtree";  // a fixed map: no LRU, no voxel capacity
@@ -418,7 +425,14 @@ GlobalSearchResult GlobalLocalizer::search(const std::vector<Eigen::Vector3f>& s
     if (!result.rival) result.rival = c;     // the runner-up, for the log
     if (rivals_best(c)) ++result.candidates;
   }
-  if (result.best.fit < (window ? config_.window_min_fit : config_.min_fit)) {
+  auto inside_window = [&](const GlobalPose& p) {
+    if (!window) return true;
+    const double k = config_.window_inner;
+    return (p.position.head<2>() - window->center.head<2>()).norm() <= k * window->radius_xy &&
+           std::abs(p.position.z() - window->center.z()) <= k * window->radius_z + r &&
+           std::abs(wrap(p.yaw - window->yaw)) <= k * window->yaw_range;
+  };
+  if (result.best.fit < config_.min_fit || !inside_window(result.best)) {
     result.verdict = GlobalSearchResult::Verdict::kNotFound;
   } else {
     result.verdict = result.candidates > 1 ? GlobalSearchResult::Verdict::kAmbiguous : GlobalSearchResult::Verdict::kLocalized;

@@ -23,7 +23,11 @@ MapLocalization::MapLocalization(const GlobalLocalizationConfig& config, std::ve
     : config_(config),
       map_points_(std::move(map_points)),
       localizer_(std::make_shared<const GlobalLocalizer>(config, map_points_)),
-      initial_pose_(initial_pose) {}
+      initial_pose_(initial_pose) {
+  const Eigen::Vector3i n = localizer_->grid_size();
+  logger("estimator")->info("global localization: {} map points, search grid {} x {} x {} cells of {} m", map_points_.size(), n.x(),
+                            n.y(), n.z(), resolution());
+}
 
 MapLocalization::~MapLocalization() {
   if (pending_ && pending_->result.valid()) pending_->result.wait();  // the search holds no reference to this
@@ -50,8 +54,8 @@ std::optional<SearchWindow> MapLocalization::window_for(const Eigen::Vector3d& s
   T.translation() = h.position;
   SearchWindow w;
   w.center = T * sensor_S;
-  w.radius_xy = 3.0 * h.std_xy + config_.resolution;
-  w.radius_z = 3.0 * h.std_z + config_.resolution;
+  w.radius_xy = 3.0 * h.std_xy + resolution();
+  w.radius_z = 3.0 * h.std_z + resolution();
   w.yaw = h.yaw;
   w.yaw_range = std::min(M_PI, 3.0 * h.std_yaw);
   return w;
@@ -111,6 +115,7 @@ std::optional<Eigen::Isometry3d> MapLocalization::on_scan(double t, const std::v
 
 std::optional<Eigen::Isometry3d> MapLocalization::finish(GlobalSearchResult r, const Pending& p, double t) {
   ++searches_;
+  search_ms_ += r.ms;
   auto log = logger("estimator");
   log->info("global localization at t={:.3f} ({:.1f} s of data, {} submap points{}): {}", t, t - *t_first_, submap_.size(),
             p.windowed ? ", around the initial pose" : "", r.describe());
@@ -118,8 +123,8 @@ std::optional<Eigen::Isometry3d> MapLocalization::finish(GlobalSearchResult r, c
   if (p.windowed && r.verdict == GlobalSearchResult::Verdict::kNotFound) {
     initial_pose_refused_ = true;
     log->warn("initial pose refused: no pose within its window fits the map (best fit {:.3f}, needs "
-              "global_localization.window_min_fit {:.2f}); searching the whole map",
-              r.best.fit, config_.window_min_fit);
+              "global_localization.min_fit {:.2f}, within {:.0f}% of the window); searching the whole map",
+              r.best.fit, config_.min_fit, 100.0 * config_.window_inner);
     last_search_at_.reset();  // search the whole map at once
     return std::nullopt;
   }

@@ -56,12 +56,12 @@ struct GlobalLocalizationConfig {
   double candidate_margin = 0.2;   ///< regional maxima scoring within this of the best are refined and compared
   int max_candidates = 12;         ///< refined at most (the best scoring first)
   double fit_residual = 0.15;      ///< m: τ of the refined fit
-  /// A location needs this refined fit; one within an initial pose's window window_min_fit (there
-  /// is no rival to compare it with when the truth lies outside the window, and a floor and a
-  /// ceiling alone fit 0.6-0.7). The whole map's searches settle ambiguity by rivals instead; a
-  /// map that covers only part of the submap's surroundings lowers the truth's fit.
+  /// A location needs this refined fit (a floor and a ceiling alone fit 0.6-0.7). Within an
+  /// initial pose's window it must also lie inside window_inner of the window (position and
+  /// heading): a best pose at the window's edge says the truth lies beyond it, and the pose given
+  /// is refused.
   double min_fit = 0.7;
-  double window_min_fit = 0.85;
+  double window_inner = 0.75;
   /// Another candidate is a rival (the result is ambiguous) unless the points it leaves unfitted
   /// outnumber the best's by ambiguity_ratio, (1 − fit_r) ≥ ratio·(1 − fit_b), and its fit is at
   /// least ambiguity_margin lower. Floors, ceilings and plain walls fit anywhere alike; what
@@ -75,7 +75,9 @@ struct GlobalLocalizationConfig {
   /// taken: a place that happens to look like the submap from one spot rarely does from the next.
   int agreeing_searches = 2;
   double map_margin = 2.0;         ///< m: the translations searched: the map's bounding box grown by this
-  double max_cells = 6e7;          ///< grid cells at most (bounding box / resolution³), else the map is refused
+  /// Grid cells at most (bounding box / resolution³; six grids of a byte per cell): a larger map
+  /// is searched at twice the resolution, and again, up to 4 m cells; beyond that it is refused.
+  double max_cells = 2e7;
   /// s of data after a location is taken in which the scans must fit the map (tracking.min_fit) for
   /// it to be confirmed; a location that does not fit is dropped and the search goes on.
   double confirm_s = 1.0;
@@ -133,6 +135,7 @@ class GlobalLocalizer {
   /// Refines a pose by the four-degree-of-freedom ICP above; the result carries its fit.
   GlobalPose refine(const std::vector<Eigen::Vector3f>& submap, const GlobalPose& start) const;
 
+  /// The config in use (resolution: the one the map's size allowed).
   const GlobalLocalizationConfig& config() const { return config_; }
   Eigen::Vector3d grid_origin() const { return origin_; }
   Eigen::Vector3i grid_size() const { return size_; }

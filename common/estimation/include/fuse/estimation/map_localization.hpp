@@ -50,11 +50,15 @@ class MapLocalization {
   void dropped(double t, const std::string& why);
 
   State state() const { return state_; }
+  /// m: the search grid's cell (coarser than configured for a large map).
+  double resolution() const { return localizer_->config().resolution; }
   const std::vector<Eigen::Vector3f>& map_points() const { return map_points_; }
   /// The session's submap, in S (what the session map is rebuilt from when a location is dropped).
   std::vector<Eigen::Vector3f> session_points() const;
   /// Searches finished, the last one's result, and how much data the session had then.
   std::size_t searches() const { return searches_; }
+  /// s of wall time the finished searches took (their own thread's work).
+  double search_seconds() const { return search_ms_ / 1000.0; }
   const std::optional<GlobalSearchResult>& last_result() const { return last_; }
   double confirm_until() const { return confirm_until_; }
   /// "searching (3 candidates)", "localized", ...: for health, queries and logs.
@@ -87,6 +91,7 @@ class MapLocalization {
   std::optional<Eigen::Isometry3d> agreed_;
   int agreeing_ = 0;
   std::size_t searches_ = 0;
+  double search_ms_ = 0.0;
   double confirm_until_ = 0.0;
 };
 
