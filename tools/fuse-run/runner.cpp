@@ -194,7 +194,8 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
     while (source->next(ev)) {
       note_refused_scans();
       progress.update(summary.imu_samples + summary.scans, ev.kind == io::SensorEvent::Kind::kImu ? ev.imu.t : ev.scan.t_end,
-                      to_string(estimator.tracking().status()));
+                      estimator.localized() ? std::string(to_string(estimator.tracking().status()))
+                                            : "relocalizing: " + estimator.map_localization()->describe());
       if (ev.kind == io::SensorEvent::Kind::kImu) {
         ++summary.imu_samples;
         estimator.ingest(ev.imu);
@@ -208,7 +209,8 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
       const StateQuery q = estimator.query(ev.scan.t_end);
       if (!q.ok()) continue;
       reports.push_back(report);
-      status.push_back(estimator.tracking().status());
+      // Not yet located in the loaded map: relocalizing, whatever the session's own tracking says.
+      status.push_back(estimator.localized() ? estimator.tracking().status() : TrackingStatus::kRelocalizing);
       if (report.updated) ++summary.scans_updated;
       summary.scan_ms.push_back(report.ms_total);
       emit(pose_of(q), false);

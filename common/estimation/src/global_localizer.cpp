@@ -174,10 +174,7 @@ std::vector<Eigen::Vector3f> thin(const std::vector<Eigen::Vector3f>& submap, co
   std::vector<Eigen::Vector3f> kept;
   for (const Eigen::Vector3f& q : submap) {
     if (!q.allFinite() || q.squaredNorm() > r2) continue;
-    const Eigen::Vector3i k = (q * inv).array().floor().cast<int>();
-    const std::uint64_t key = (static_cast<std::uint64_t>(k.x() & 0x1fffff) << 42) |
-                              (static_cast<std::uint64_t>(k.y() & 0x1fffff) << 21) | static_cast<std::uint64_t>(k.z() & 0x1fffff);
-    if (seen.insert(key).second) kept.push_back(q);
+    if (seen.insert(cell_key(q, inv)).second) kept.push_back(q);
   }
   const auto max_points = static_cast<std::size_t>(c.max_points);
   if (kept.size() <= max_points) return kept;

@@ -68,10 +68,7 @@ std::optional<Eigen::Isometry3d> MapLocalization::on_scan(double t, const std::v
   const float inv = static_cast<float>(2.0 / config_.resolution);  // half-cell voxels
   for (const Eigen::Vector3f& p : points_S) {
     if (!p.allFinite()) continue;
-    const Eigen::Vector3i k = (p * inv).array().floor().cast<int>();
-    const std::uint64_t key = (static_cast<std::uint64_t>(k.x() & 0x1fffff) << 42) |
-                              (static_cast<std::uint64_t>(k.y() & 0x1fffff) << 21) | static_cast<std::uint64_t>(k.z() & 0x1fffff);
-    submap_.try_emplace(key, p);
+    submap_.try_emplace(cell_key(p, inv), p);
   }
   if (pending_) {
     const bool ready = config_.blocking ||
