@@ -95,6 +95,21 @@ TEST(MapStorage, SnapshotFileRoundTrip) {
   EXPECT_FALSE(meta_back.acks.covered(0xFFFFFFFFFFFFull, 7));
   EXPECT_EQ(meta_back.acks.by_activity(), (std::vector<std::uint64_t>{3, 0xFFFFFFFFFFFFull, 7}))
       << "the order of activity is kept";
+  EXPECT_FALSE(meta_back.gravity.has_value()) << "a writer that did not know gravity records none";
+}
+
+TEST(MapStorage, SnapshotKeepsTheMapsGravityDirection) {
+  TempDir dir;
+  const PointMap map = sample_map();
+  MapMeta meta;
+  meta.gravity = Eigen::Vector3d(0.01, -0.02, -1.0);  // stored as a unit vector
+  const auto file = dir / "gravity.snapshot";
+  MapStorage::write_snapshot_file(file, map, meta);
+  PointMap back(1.0);
+  MapMeta meta_back;
+  ASSERT_TRUE(MapStorage::read_snapshot_file(file, back, meta_back).snapshot_ok);
+  ASSERT_TRUE(meta_back.gravity.has_value());
+  EXPECT_LT((*meta_back.gravity - meta.gravity->normalized()).norm(), 1e-12);
 }
 
 TEST(MapStorage, JournalReplaysAppendedObservationsInOrder) {

@@ -225,6 +225,25 @@ TEST(StartAnywhere, MappingAfterTheLocationExtendsTheMapWithoutASeam) {
   EXPECT_LT(p95, 0.1f);
 }
 
+TEST(StartAnywhere, TheSavedMapRecordsItsGravityAndATiltedOneIsNotSearched) {
+  ASSERT_TRUE(fs::exists(kFirst + "/recording.mcap")) << "fixtures missing";
+  PointMap map;
+  MapMeta meta;
+  ASSERT_TRUE(MapStorage::read_snapshot_file(saved_map().file, map, meta).snapshot_ok);
+  ASSERT_TRUE(meta.gravity.has_value()) << "fuse-run --save-map records the map frame's gravity";
+  const double tilt = std::acos(std::clamp(-meta.gravity->z(), -1.0, 1.0));
+  RecordProperty("map_gravity_tilt_deg", std::to_string(tilt * 180.0 / M_PI));
+  EXPECT_LT(tilt, 1.0 * M_PI / 180.0);  // the frame is gravity-aligned at its start; estimated gravity moves little
+  // The same map said to be tilted by 5°: the search, which turns about z only, refuses it.
+  meta.gravity = Eigen::AngleAxisd(5.0 * M_PI / 180.0, Eigen::Vector3d::UnitX()) * Eigen::Vector3d(0, 0, -1);
+  const std::string tilted = std::string(FUSE_TEST_OUT) + "/start-anywhere-tilted.snapshot";
+  MapStorage::write_snapshot_file(tilted, map, meta);
+  RunnerConfig c = load_runner_config(kConfig, {"estimator.map.mode=localization"});
+  c.load_map = tilted;
+  const RunSummary run = run_offline(c, kElsewhere + "/recording.mcap", "");
+  EXPECT_NE(run.error.find("gravity"), std::string::npos) << run.error;
+}
+
 TEST(StartAnywhere, AWrongInitialPoseIsRefusedNotTaken) {
   ASSERT_TRUE(fs::exists(kFirst + "/recording.mcap") && fs::exists(kElsewhere + "/recording.mcap")) << "fixtures missing";
   // 2 m and 30° off, given with σ of 0.3 m and 3°: nothing within its window fits.

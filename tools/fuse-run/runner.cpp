@@ -144,7 +144,7 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
     log->info("map {} loaded: {} points; map mode {}", config.load_map, points.size(), config.estimator.map.mode);
     if (config.estimator.global_localization.enabled || config.initial_pose) {
       try {
-        estimator.localize_in(std::move(points), config.initial_pose);
+        estimator.localize_in(std::move(points), config.initial_pose, meta.gravity);
       } catch (const std::invalid_argument& e) {
         summary.error = std::string("cannot search the map: ") + e.what();
         return summary;
@@ -231,6 +231,12 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
     MapMeta meta;
     meta.min_point_distance = config.estimator.map.min_point_distance;
     meta.mode = config.estimator.map.mode;
+    // The gravity direction the map's frame ended with (the estimate's, in the map frame): a later
+    // session that searches the map checks it.
+    if (estimator.initialised() && estimator.localized()) {
+      const Eigen::Vector3d g = estimator.latest().x.g;
+      if (g.allFinite() && g.norm() > 0.0) meta.gravity = g.normalized();
+    }
     MapStorage::write_snapshot_file(config.save_map, map, meta);
     log->info("map saved to {}: {} points", config.save_map, map.num_points());
   }

@@ -1,5 +1,6 @@
 #include "fuse/estimation/estimator.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "fuse/core/logging.hpp"
@@ -103,8 +104,20 @@ ScanReport Estimator::ingest(const LidarScan& scan) {
   return report;
 }
 
-void Estimator::localize_in(std::vector<Eigen::Vector3f> points, const std::optional<InitialPose>& initial_pose) {
-  localization_ = std::make_unique<MapLocalization>(config_.global_localization, std::move(points), initial_pose);
+void Estimator::localize_in(std::vector<Eigen::Vector3f> points, const std::optional<InitialPose>& initial_pose,
+                            const std::optional<Eigen::Vector3d>& map_gravity) {
+  if (map_gravity) {
+    // The search turns about z: the map must be used in the gravity-aligned frame it was built in.
+    const double tilt = std::acos(std::clamp(-map_gravity->normalized().z(), -1.0, 1.0));
+    if (tilt > config_.global_localization.max_map_tilt) {
+      throw std::invalid_argument(fmt::format("the map's gravity is {:.2f} deg off its -z axis, more than "
+                                              "global_localization.max_map_tilt ({:.2f} deg)",
+                                              tilt * 180.0 / M_PI, config_.global_localization.max_map_tilt * 180.0 / M_PI));
+    }
+    logger("estimator")->info("the map's recorded gravity is {:.3f} deg off its -z axis", tilt * 180.0 / M_PI);
+  }
+  localization_ = std::make_unique<MapLocalization>(config_.global_localization, std::move(points), initial_pose,
+                                                    map_gravity ? *map_gravity : -Eigen::Vector3d::UnitZ());
   T_map_session_.setIdentity();
   // The session maps its own surroundings in its own frame until it knows where it is.
   updater_.restart_map({}, "mapping");
@@ -134,7 +147,7 @@ void Estimator::localize_step(const ScanReport& report) {
     return;
   }
   const std::optional<Eigen::Isometry3d> T =
-      L.on_scan(t, updater_.last_world_points(), updater_.last_T_world_lidar().translation());
+      L.on_scan(t, updater_.last_world_points(), updater_.last_T_world_lidar().translation(), history.query(t).x.g);
   if (!T) return;
   // Into the map's frame: the history by T_M_S, the saved map for the session's (not extended
   // while the location is being confirmed), and a prior as wide as the search's step (a cell in

@@ -19,7 +19,8 @@ void GlobalLocalizationConfig::load(ConfigNode& node) {
   node.get("max_points", max_points).get("min_travel", min_travel).get("min_time", min_time).get("period", period).get("min_score", min_score);
   node.get("candidate_margin", candidate_margin).get("max_candidates", max_candidates).get("fit_residual", fit_residual);
   node.get("min_fit", min_fit).get("window_inner", window_inner).get("ambiguity_ratio", ambiguity_ratio).get("ambiguity_margin", ambiguity_margin).get("distinct_distance", distinct_distance);
-  node.get("agreeing_searches", agreeing_searches);
+  node.get("agreeing_searches", agreeing_searches).get("max_map_tilt", max_map_tilt);
+  node.check(std::isfinite(max_map_tilt) && max_map_tilt > 0.0 && max_map_tilt <= 0.5, "max_map_tilt", "must be in (0, 0.5] rad");
   node.check(agreeing_searches >= 1 && agreeing_searches <= 10, "agreeing_searches", "must be in [1, 10]");
   node.get("distinct_angle", distinct_angle).get("map_margin", map_margin).get("max_cells", max_cells);
   node.get("confirm_s", confirm_s).get("blocking", blocking);

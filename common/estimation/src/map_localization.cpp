@@ -18,11 +18,26 @@ const char* to_string(MapLocalization::State s) {
   return "?";
 }
 
+Eigen::Matrix3d levelling(const Eigen::Vector3d& g) {
+  return Eigen::Quaterniond::FromTwoVectors(g.normalized(), -Eigen::Vector3d::UnitZ()).toRotationMatrix();
+}
+
+namespace {
+std::vector<Eigen::Vector3f> rotated(const std::vector<Eigen::Vector3f>& points, const Eigen::Matrix3d& R) {
+  const Eigen::Matrix3f Rf = R.cast<float>();
+  std::vector<Eigen::Vector3f> out;
+  out.reserve(points.size());
+  for (const Eigen::Vector3f& p : points) out.push_back(Rf * p);
+  return out;
+}
+}  // namespace
+
 MapLocalization::MapLocalization(const GlobalLocalizationConfig& config, std::vector<Eigen::Vector3f> map_points,
-                                 std::optional<InitialPose> initial_pose)
+                                 std::optional<InitialPose> initial_pose, const Eigen::Vector3d& map_gravity)
     : config_(config),
       map_points_(std::move(map_points)),
-      localizer_(std::make_shared<const GlobalLocalizer>(config, map_points_)),
+      level_M_(levelling(map_gravity)),
+      localizer_(std::make_shared<const GlobalLocalizer>(config, rotated(map_points_, level_M_))),
       initial_pose_(initial_pose) {
   const Eigen::Vector3i n = localizer_->grid_size();
   logger("estimator")->info("global localization: {} map points, search grid {} x {} x {} cells of {} m", map_points_.size(), n.x(),
@@ -53,7 +68,7 @@ std::optional<SearchWindow> MapLocalization::window_for(const Eigen::Vector3d& s
   T.linear() = Eigen::AngleAxisd(h.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   T.translation() = h.position;
   SearchWindow w;
-  w.center = T * sensor_S;
+  w.center = level_M_ * (T * sensor_S);  // in the levelled map
   w.radius_xy = 3.0 * h.std_xy + resolution();
   w.radius_z = 3.0 * h.std_z + resolution();
   w.yaw = h.yaw;
@@ -62,7 +77,7 @@ std::optional<SearchWindow> MapLocalization::window_for(const Eigen::Vector3d& s
 }
 
 std::optional<Eigen::Isometry3d> MapLocalization::on_scan(double t, const std::vector<Eigen::Vector3f>& points_S,
-                                                          const Eigen::Vector3d& sensor_S) {
+                                                          const Eigen::Vector3d& sensor_S, const Eigen::Vector3d& gravity_S) {
   if (state_ != State::kSearching) return std::nullopt;
   if (!t_first_) t_first_ = t;
   const float inv = static_cast<float>(2.0 / config_.resolution);  // half-cell voxels
@@ -88,16 +103,20 @@ std::optional<Eigen::Isometry3d> MapLocalization::on_scan(double t, const std::v
   }
   last_search_at_ = sensor_S;
   last_search_t_ = t;
+  // Relative to the sensor, levelled by the session's gravity estimate.
+  const Eigen::Matrix3d level_S = levelling(gravity_S);
+  const Eigen::Matrix3f level_Sf = level_S.cast<float>();
   std::vector<Eigen::Vector3f> relative;
   relative.reserve(submap_.size());
   const Eigen::Vector3f c = sensor_S.cast<float>();
   const auto r2 = static_cast<float>(config_.submap_radius * config_.submap_radius);
   for (const auto& [key, p] : submap_) {
-    if ((p - c).squaredNorm() <= r2) relative.push_back(p - c);
+    if ((p - c).squaredNorm() <= r2) relative.push_back(level_Sf * (p - c));
   }
   std::shared_ptr<const GlobalLocalizer> localizer = localizer_;
   Pending p;
   p.sensor_S = sensor_S;
+  p.level_S = level_S;
   p.windowed = window.has_value();
   p.result = std::async(config_.blocking ? std::launch::deferred : std::launch::async,
                         [localizer, relative = std::move(relative), window] { return localizer->search(relative, window); });
@@ -129,9 +148,12 @@ std::optional<Eigen::Isometry3d> MapLocalization::finish(GlobalSearchResult r, c
     agreeing_ = 0;
     return std::nullopt;
   }
+  // A session point p lies at Rz(ψ) L_S (p − c) + t in the levelled map M', and M = L_Mᵀ M':
+  //   T_M_S = [L_Mᵀ Rz(ψ) L_S | L_Mᵀ (t − Rz(ψ) L_S c)].
+  const Eigen::Matrix3d R_prime = Eigen::AngleAxisd(r.best.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * p.level_S;
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = Eigen::AngleAxisd(r.best.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  T.translation() = r.best.position - T.linear() * p.sensor_S;
+  T.linear() = level_M_.transpose() * R_prime;
+  T.translation() = level_M_.transpose() * (r.best.position - R_prime * p.sensor_S);
   if (p.windowed) return T;  // confined around a given pose: one search decides
   // Searches of the whole map must agree: the same T_M_S (the session's odometry between them is
   // good over a few metres) from agreeing_searches places in a row.

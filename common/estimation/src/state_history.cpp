@@ -188,7 +188,8 @@ void StateHistory::transform_world(const Eigen::Isometry3d& T_new_old) {
   // x' = T ⊕ x: p' = R p + t, v' = R v, R'_WI = R R_WI, g' = R g. The error state's position,
   // velocity and gravity parts are world-frame vectors and turn with R (δp' = R δp); rotation
   // errors are body-frame (δθ_WI) and stay. Gravity's 2-D tangent error is left as it is: the
-  // transforms used turn about the vertical, which keeps g and its tangent basis.
+  // transforms used turn about the vertical up to the two frames' tilt (a degree at most), which
+  // keeps g and its tangent basis nearly as they were.
   if (entries_.empty()) return;
   refresh_to(entries_.size() - 1);
   const Eigen::Matrix3d R = T_new_old.linear();

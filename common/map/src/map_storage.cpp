@@ -127,6 +127,10 @@ MapMeta meta_of(const map::pb::SnapshotHeader& header) {
   meta.epoch = header.epoch();
   meta.observations = header.observations();
   meta.system_name = header.system_name();
+  if (header.has_gravity()) {
+    const Eigen::Vector3d g(header.gravity().x(), header.gravity().y(), header.gravity().z());
+    if (g.allFinite() && std::abs(g.norm() - 1.0) < 1e-3) meta.gravity = g;  // anything else is not a direction
+  }
   // Stored most recently active first: restored oldest first, so that the order is kept.
   for (auto it = header.applied().rbegin(); it != header.applied().rend(); ++it) {
     std::vector<std::pair<std::uint64_t, std::uint64_t>> ranges;
@@ -189,6 +193,12 @@ void MapStorage::write_snapshot_file(const fs::path& file, const PointMap& map, 
   header.set_epoch(meta.epoch);
   header.set_observations(meta.observations);
   header.set_system_name(meta.system_name);
+  if (meta.gravity) {
+    const Eigen::Vector3d g = meta.gravity->normalized();
+    header.mutable_gravity()->set_x(g.x());
+    header.mutable_gravity()->set_y(g.y());
+    header.mutable_gravity()->set_z(g.z());
+  }
   header.set_chunk_count(map.num_chunks());
   header.set_point_count(map.num_points());
 

@@ -44,6 +44,8 @@ class Estimator {
   StateQuery query(double t) const { return tracker_.history().query(t); }
 
   bool initialised() const { return tracker_.initialised(); }
+  /// x̂ at the newest time the history holds (status kNotInitialised before initialisation).
+  StateQuery latest() const { return initialised() ? query(tracker_.history().newest_time()) : StateQuery{}; }
   /// Replaces the map by these world-frame points (a saved map to localize on or extend).
   void load_map(const std::vector<Eigen::Vector3f>& points) {
     updater_.reset_map();
@@ -53,8 +55,11 @@ class Estimator {
   /// frame S and searches the map for itself (MapLocalization), around `initial_pose` when given;
   /// once found, its history moves into the map's frame, the saved map replaces the session's
   /// and the next estimator.global_localization.confirm_s of scans must fit it. Nothing is written
-  /// to the map until then. Throws std::invalid_argument when the map cannot be searched.
-  void localize_in(std::vector<Eigen::Vector3f> points, const std::optional<InitialPose>& initial_pose = std::nullopt);
+  /// to the map until then. `map_gravity`: the gravity direction the map recorded, if any. Throws
+  /// std::invalid_argument when the map cannot be searched (too large, or its gravity farther
+  /// than global_localization.max_map_tilt from its −z).
+  void localize_in(std::vector<Eigen::Vector3f> points, const std::optional<InitialPose>& initial_pose = std::nullopt,
+                   const std::optional<Eigen::Vector3d>& map_gravity = std::nullopt);
   /// The search for the start in a saved map (nullptr without localize_in).
   const MapLocalization* map_localization() const { return localization_.get(); }
   /// T_M_S: where the session frame lies in the saved map's (identity until a location is taken).

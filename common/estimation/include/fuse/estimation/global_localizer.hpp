@@ -78,6 +78,9 @@ struct GlobalLocalizationConfig {
   /// session lies in the map (T_M_S within distinct_distance and distinct_angle) before it is
   /// taken: a place that happens to look like the submap from one spot rarely does from the next.
   int agreeing_searches = 2;
+  /// rad: a map whose recorded gravity is farther than this from its −z is not searched (the
+  /// search turns about z only; 2°: 0.9 m at the edge of a 25 m submap)
+  double max_map_tilt = 0.035;
   double map_margin = 2.0;         ///< m: the translations searched: the map's bounding box grown by this
   /// Grid cells at most (bounding box / resolution³; six grids of a byte per cell): a larger map
   /// is searched at twice the resolution, and again, up to 4 m cells; beyond that it is refused.

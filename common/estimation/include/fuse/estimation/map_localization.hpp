@@ -37,13 +37,20 @@ class MapLocalization {
   enum class State { kSearching, kConfirming, kLocalized };
 
   /// Builds the search grids of the saved map (throws std::invalid_argument like GlobalLocalizer).
+  /// `map_gravity`: the gravity direction the map recorded (default −z). The search levels both
+  /// sides: the map by the rotation taking its gravity to −z, the submap by the one taking the
+  /// session's current gravity estimate to −z, so that four degrees of freedom remain however the
+  /// two frames' static initialisations tilted them (0.65° apart on the corridor fixture: 0.28 m
+  /// at the edge of a 25 m submap).
   MapLocalization(const GlobalLocalizationConfig& config, std::vector<Eigen::Vector3f> map_points,
-                  std::optional<InitialPose> initial_pose);
+                  std::optional<InitialPose> initial_pose, const Eigen::Vector3d& map_gravity = -Eigen::Vector3d::UnitZ());
   ~MapLocalization();
 
   /// One scan processed in the session frame S: the points it placed there and the sensor's
   /// position. Starts a search when one is due; returns T_M_S when a search found one location.
-  std::optional<Eigen::Isometry3d> on_scan(double t, const std::vector<Eigen::Vector3f>& points_S, const Eigen::Vector3d& sensor_S);
+  /// `gravity_S`: the session's current gravity estimate in S.
+  std::optional<Eigen::Isometry3d> on_scan(double t, const std::vector<Eigen::Vector3f>& points_S, const Eigen::Vector3d& sensor_S,
+                                           const Eigen::Vector3d& gravity_S = -Eigen::Vector3d::UnitZ());
   /// The location returned last was taken (kConfirming) / confirmed by the scans after it / dropped.
   void taken(double t);
   void confirmed(double t);
@@ -70,6 +77,7 @@ class MapLocalization {
   struct Pending {
     std::future<GlobalSearchResult> result;
     Eigen::Vector3d sensor_S;
+    Eigen::Matrix3d level_S;  ///< R taking the session's gravity to −z, when the submap was taken
     bool windowed = false;
   };
   std::optional<SearchWindow> window_for(const Eigen::Vector3d& sensor_S) const;
@@ -77,6 +85,7 @@ class MapLocalization {
 
   GlobalLocalizationConfig config_;
   std::vector<Eigen::Vector3f> map_points_;
+  Eigen::Matrix3d level_M_;  ///< R_M'M: the map levelled (its gravity to −z) for the search
   std::shared_ptr<const GlobalLocalizer> localizer_;  ///< shared with a running search
   std::optional<InitialPose> initial_pose_;
   bool initial_pose_refused_ = false;
@@ -96,5 +105,8 @@ class MapLocalization {
 };
 
 const char* to_string(MapLocalization::State s);
+
+/// The smallest rotation taking the direction g to −z (levelling a frame whose gravity is g).
+Eigen::Matrix3d levelling(const Eigen::Vector3d& g);
 
 }  // namespace fuse

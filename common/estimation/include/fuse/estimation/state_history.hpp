@@ -114,7 +114,8 @@ class StateHistory {
 
   StateQuery query(double t) const;
   /// Moves every entry into another world frame, x ← T_new_old ⊕ x (a session that found itself in
-  /// a saved map: MapLocalization). T's rotation must turn about the vertical (z).
+  /// a saved map: MapLocalization). T's rotation must turn about the vertical (z), up to a small
+  /// tilt (the two frames' levelling).
   void transform_world(const Eigen::Isometry3d& T_new_old);
   /// The end of the latest step between consecutive entries that is longer than max_step (coasted
   /// across a data gap: nothing measured the motion) and ends in (t0, t1) where the IMU resumed;

@@ -42,6 +42,7 @@
 #include <filesystem>
 #include <functional>
 #include <stdexcept>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -81,6 +82,9 @@ struct MapMeta {
   std::uint64_t observations = 0;  ///< observations applied to this map, in total
   SessionAcks acks;                ///< per session: acknowledged, and durable above a hole
   std::string system_name;         ///< transport.system_name of the system that built it (empty: default)
+  /// Unit gravity direction in the map frame (about −z: the frame is gravity-aligned at its start,
+  /// and an estimated gravity may have moved since); empty when the writer did not know it.
+  std::optional<Eigen::Vector3d> gravity;
 };
 
 /// Bytes of a file that a load skipped as damaged.
