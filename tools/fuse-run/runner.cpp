@@ -125,6 +125,11 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
     return summary;
   }
   RunnerConfig config = config_in;
+  // An offline replay runs faster than the data: a search in a thread of its own would finish
+  // after the replay had moved on (or ended), and whether the run located itself would depend
+  // on the machine's speed. fuse-run waits for each search instead (a live system locates a
+  // search's duration of data later).
+  config.estimator.global_localization.blocking = true;
   if (auto T = source->T_imu_lidar()) {
     config.estimator.T_imu_lidar = *T;
     log->info("extrinsic T_imu_lidar from the input overrides the config: t = [{:.4f} {:.4f} {:.4f}]",

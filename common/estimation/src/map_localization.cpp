@@ -91,7 +91,7 @@ std::optional<Eigen::Isometry3d> MapLocalization::on_scan(double t, const std::v
     if (!ready) return std::nullopt;
     Pending p = std::move(*pending_);
     pending_.reset();
-    if (auto T = finish(p.result.get(), p, t)) return T;
+    if (auto T = finish(take(p), p, t)) return T;
   }
   // Due: the first search of the whole map once min_time of data is gathered (around an initial
   // pose at once); later ones when the sensor moved min_travel (a new view) or period passed.
@@ -124,9 +124,20 @@ std::optional<Eigen::Isometry3d> MapLocalization::on_scan(double t, const std::v
   if (config_.blocking) {
     Pending q = std::move(*pending_);
     pending_.reset();
-    return finish(q.result.get(), q, t);
+    return finish(take(q), q, t);
   }
   return std::nullopt;
+}
+
+GlobalSearchResult MapLocalization::take(Pending& p) {
+  // A search that threw (out of memory, say) is a search that found nothing: logged, and the
+  // next one is due as usual; it never takes the estimator down with it.
+  try {
+    return p.result.get();
+  } catch (const std::exception& e) {
+    logger("estimator")->error("global localization search failed: {}", e.what());
+    return GlobalSearchResult{};
+  }
 }
 
 std::optional<Eigen::Isometry3d> MapLocalization::finish(GlobalSearchResult r, const Pending& p, double t) {

@@ -88,7 +88,7 @@ struct GlobalLocalizationConfig {
   /// s of data after a location is taken in which the scans must fit the map (tracking.min_fit) for
   /// it to be confirmed; a location that does not fit is dropped and the search goes on.
   double confirm_s = 1.0;
-  /// Wait for each search where it is asked for (reproducible offline runs: fuse-run). false: it
+  /// Wait for each search where it is asked for (fuse-run always sets it: an offline replay). false: it
   /// runs in a thread of its own and scan processing never waits for it.
   bool blocking = false;
   void load(ConfigNode& node);

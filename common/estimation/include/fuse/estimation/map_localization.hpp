@@ -81,6 +81,8 @@ class MapLocalization {
     bool windowed = false;
   };
   std::optional<SearchWindow> window_for(const Eigen::Vector3d& sensor_S) const;
+  /// The finished search's result (a search that threw counts as one that found nothing).
+  static GlobalSearchResult take(Pending& p);
   std::optional<Eigen::Isometry3d> finish(GlobalSearchResult r, const Pending& p, double t);
 
   GlobalLocalizationConfig config_;
