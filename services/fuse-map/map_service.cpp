@@ -261,6 +261,11 @@ void MapService::handle_observation(const fuse_msgs::MapObservation& o) {
     if (!points.back().allFinite()) ++not_finite;
   }
   if (not_finite > 0) count("points_not_finite", not_finite);  // the core drops them
+  const Eigen::Vector3d gravity(o.gravity().x(), o.gravity().y(), o.gravity().z());
+  constexpr double kMaxGravityTilt = 0.35;  // rad: a session's gravity this far off −z is not a map frame's
+  if (gravity.squaredNorm() > 0.0 && !core_->note_gravity(gravity, kMaxGravityTilt)) {
+    count("observation_gravity_refused");  // the points are still taken
+  }
 
   const MapApplyResult r =
       core_->apply(o.session(), o.sequence_number(), o.t(), points, o.lowest_unacked());
@@ -485,6 +490,11 @@ void MapService::publish_status() {
   m.chunks(static_cast<std::uint32_t>(non_empty_chunks(core_->map())));
   m.observations_applied(s.observations_applied);
   m.journal_records(s.journal_records);
+  if (const auto& g = core_->gravity()) {
+    m.gravity().x(g->x());
+    m.gravity().y(g->y());
+    m.gravity().z(g->z());
+  }
   {
     std::lock_guard<std::mutex> lock(health_mutex_);
     m.last_error(last_error_.substr(0, kMaxErrorText));

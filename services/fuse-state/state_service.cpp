@@ -214,6 +214,8 @@ std::optional<fuse_msgs::StateEstimate> StateService::feed(const ImuSample& imu)
 
 fuse_msgs::StateEstimate StateService::estimate(const StateQuery& q, std::uint64_t sequence) const {
   fuse_msgs::StateEstimate e = to_estimate(q, sequence);
+  e.map_frame(frame_.state);
+  e.localization_candidates(frame_.relocalizing() ? candidates_ : 0);
   if (const std::optional<HostClockOffsets> o = host_clock_.offsets_now()) {
     e.host_clock_known(true);
     e.host_realtime_offset(o->realtime);
@@ -259,12 +261,16 @@ void StateService::go_live() {
   live_ = true;
   // The newest posterior held anywhere: fuse-update's corrections or our own checkpoint.
   std::optional<Posterior> best = pending_recovery_;
+  std::optional<WorldFrame> frame = pending_frame_;
   std::string source = "the correction";
   if (checkpoint_ && (!best || checkpoint_->posterior.t > best->t)) {
     best = checkpoint_->posterior;
+    frame = checkpoint_->frame;
     source = "the checkpoint";
   }
   pending_recovery_.reset();
+  pending_frame_.reset();
+  if (frame) frame_ = *frame;
   checkpoint_.reset();
   if (best) {
     restore_from(*best, source);
@@ -329,8 +335,10 @@ void StateService::on_correction(const fuse_msgs::Correction& msg) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (std::isfinite(msg.t())) newest_correction_t_ = std::max(newest_correction_t_, msg.t());
     Posterior post;
+    WorldFrame frame;
     try {
       post = from_msg(msg);
+      frame = frame_of(msg);
     } catch (const InvalidSample& e) {
       counters_.count(e.reason(), std::string("correction refused: ") + e.what());
       last_error_ = e.what();
@@ -340,14 +348,18 @@ void StateService::on_correction(const fuse_msgs::Correction& msg) {
       // During the recovery wait (or before anything else): keep the newest to restore from.
       if (msg.result() == fuse_msgs::SCAN_UPDATED && (!pending_recovery_ || post.t > pending_recovery_->t)) {
         pending_recovery_ = post;
+        pending_frame_ = frame;
       }
       if (live_ && pending_recovery_) {
+        if (pending_frame_) frame_ = *pending_frame_;
         restore_from(*pending_recovery_, "the correction");
         pending_recovery_.reset();
+        pending_frame_.reset();
       } else {
         return;
       }
     } else {
+      if (!take_frame(msg, frame)) return;
       StateHistory& h = tracker_.history();
       if (msg.result() == fuse_msgs::SCAN_UPDATED && post.t != last_applied_correction_t_) {
         if (!h.ensure_entry(post.t)) {
@@ -358,7 +370,7 @@ void StateService::on_correction(const fuse_msgs::Correction& msg) {
         last_applied_correction_t_ = post.t;
         counters_.add("corrections_applied");
         count_map_drift(msg);
-        if (checkpoint_writer_) checkpoint_writer_->offer(Checkpoint{post, map_drift_});
+        if (checkpoint_writer_) checkpoint_writer_->offer(Checkpoint{post, map_drift_, frame_});
         if (unconfirmed_ && msg.tracking() == fuse_msgs::TRACKING_OK) unconfirmed_ = false;
       } else if (msg.result() == fuse_msgs::SCAN_PRIOR_ONLY) {
         counters_.count("corrections_prior_only", fmt::format("the scan ending at t={:.6f} gave fuse-update no update: "
@@ -369,17 +381,67 @@ void StateService::on_correction(const fuse_msgs::Correction& msg) {
     update_tracking_ = msg.tracking();
     const StateQuery q = tracker_.history().query(post.t);
     if (!q.ok()) return;
-    if (trajectory_.is_open() && q.t > trajectory_t_) {
-      trajectory_t_ = q.t;
-      const Eigen::Quaterniond r(q.x.R);
-      trajectory_ << q.t << ' ' << q.x.p.x() << ' ' << q.x.p.y() << ' ' << q.x.p.z() << ' ' << r.x() << ' ' << r.y() << ' '
-                  << r.z() << ' ' << r.w() << '\n';
-      trajectory_.flush();
-    }
+    write_pose(q.t, q.x);
     corrected = estimate(q, msg.scan_sequence());
     corrected->status(fuse_msgs::STATUS_CORRECTED);
   }
   corrected_.publish(*corrected);
+}
+
+bool StateService::take_frame(const fuse_msgs::Correction& msg, const WorldFrame& frame) {
+  if (frame.epoch < frame_.epoch) {
+    counters_.add("corrections_of_an_older_frame");  // sent before a frame change this history has made
+    return false;
+  }
+  if (frame.epoch > frame_.epoch) {
+    Eigen::Isometry3d T;
+    try {
+      T = frame_change_of(msg);
+    } catch (const InvalidSample& e) {
+      counters_.count(e.reason(), std::string("correction refused: ") + e.what());
+      return false;
+    }
+    if (frame.epoch != frame_.epoch + 1) {
+      counters_.count("frame_epochs_skipped", fmt::format("correction of world frame epoch {} after epoch {}: "
+                                                          "taking its frame change alone",
+                                                          frame.epoch, frame_.epoch));
+    }
+    tracker_.history().transform_world(T);
+    for (auto& held : held_poses_) held.second = T * held.second;
+    const double moved = T.translation().norm();
+    const double turned = Eigen::AngleAxisd(T.linear()).angle() * 180.0 / M_PI;
+    logger(kName)->info("world frame {} -> {} (epoch {}){}", to_string(frame_.state), to_string(frame.state), frame.epoch,
+                        moved > 0.0 || turned > 0.0 ? fmt::format(": history moved {:.2f} m, turned {:.1f} deg", moved, turned)
+                                                    : std::string());
+    counters_.add("world_frame_changes");
+    frame_ = frame;
+  }
+  candidates_ = msg.localization_candidates();
+  localization_ = msg.localization();
+  return true;
+}
+
+void StateService::write_pose(double t, const NavState& x) {
+  if (!trajectory_.is_open()) return;
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = x.R;
+  T.translation() = x.p;
+  constexpr std::size_t kMaxHeld = 1000000;  // ~28 h of scans at 10 Hz
+  if (frame_.relocalizing() && held_poses_.size() < kMaxHeld) {
+    if (held_poses_.empty() || t > held_poses_.back().first) held_poses_.emplace_back(t, T);
+    return;
+  }
+  if (frame_.relocalizing()) counters_.add("trajectory_poses_not_held");
+  held_poses_.emplace_back(t, T);  // written in the map frame now, after those held before
+  for (const auto& [ht, pose] : held_poses_) {
+    if (ht <= trajectory_t_) continue;
+    trajectory_t_ = ht;
+    const Eigen::Quaterniond r(pose.linear());
+    trajectory_ << ht << ' ' << pose.translation().x() << ' ' << pose.translation().y() << ' ' << pose.translation().z()
+                << ' ' << r.x() << ' ' << r.y() << ' ' << r.z() << ' ' << r.w() << '\n';
+  }
+  held_poses_.clear();
+  trajectory_.flush();
 }
 
 Tracking StateService::tracking() {
@@ -402,6 +464,11 @@ Tracking StateService::tracking() {
     } else if (h.newest_time() - since > config_.state.lost_after_s) {
       now = Tracking::kLost;
       why = fmt::format("no LiDAR correction for {:.1f} s of IMU (state.lost_after_s)", h.newest_time() - since);
+    } else if (frame_.relocalizing()) {
+      now = Tracking::kRelocalizing;
+      why = fmt::format("{} the saved map for this session's place: {}",
+                        frame_.state == fuse_msgs::MAP_FRAME_SEARCHING ? "searching" : "confirming a location in",
+                        localization_.empty() ? to_string(frame_.state) : localization_);
     } else if (catching_up()) {
       now = Tracking::kRelocalizing;
       why = fmt::format("catching up on held scans ({:.1f} s behind the newest IMU)", h.newest_time() - h.fresh_time());
@@ -575,6 +642,8 @@ void StateService::on_history(const fuse_msgs::HistoryRequest& req, fuse_msgs::H
     for (int c = 0; c < kStateDim; ++c) rep.covariance()[static_cast<std::size_t>(r * kStateDim + c)] = q_end.P(r, c);
   }
   rep.last_correction_time(h.last_correction_time());
+  rep.map_frame(frame_.state);
+  rep.frame_epoch(frame_.epoch);
   counters_.add("history_served");
 }
 

@@ -22,6 +22,13 @@
 // old posterior and catching up, or fuse-update reports scans being re-localised), lost (no
 // state while the sensor moves, fuse-update reports lost, or no LiDAR correction for
 // state.lost_after_s of IMU).
+//
+// World frame (docs/architecture.md, "Starting anywhere in a saved map"): the history's frame
+// against a saved map (WorldFrame: undecided, own, searching, confirming, localized) is set by
+// fuse-update through its corrections; a correction one frame epoch ahead moves the history by
+// its frame_change first. While searching or confirming, every reply says relocalizing with the
+// search's candidate count, and trajectory lines are held (moved with the frame) until the
+// location is confirmed.
 #pragma once
 
 #include <atomic>
@@ -71,6 +78,11 @@ class StateService {
   /// An estimate for planners: the state at q with the map frame's uncertainty added.
   fuse_msgs::StateEstimate estimate(const StateQuery& q, std::uint64_t sequence) const;
   void count_map_drift(const fuse_msgs::Correction& msg);
+  /// Takes a correction's world frame (lock held): moves the history when it is one epoch ahead;
+  /// false for a correction of an older frame (not to be applied).
+  bool take_frame(const fuse_msgs::Correction& msg, const WorldFrame& frame);
+  /// Writes a trajectory line, or holds it while the world frame is not the map's.
+  void write_pose(double t, const NavState& x);
   HealthSnapshot health();
   void malformed(const std::string& topic, const std::string& why);
 
@@ -107,6 +119,11 @@ class StateService {
   std::string last_error_;
   std::ofstream trajectory_;
   double trajectory_t_ = -1.0;  ///< newest pose in the trajectory file (kept across restarts)
+  WorldFrame frame_;                          ///< the history's frame against a saved map
+  std::optional<WorldFrame> pending_frame_;   ///< pending_recovery_'s
+  std::uint32_t candidates_ = 0;              ///< of the newest search (while searching)
+  std::string localization_;                  ///< the search's state in words
+  std::vector<std::pair<double, Eigen::Isometry3d>> held_poses_;  ///< T_world_imu, until the frame is the map's
 
   transport::Publisher<fuse_msgs::StateEstimate> odometry_;
   transport::Publisher<fuse_msgs::StateEstimate> corrected_;

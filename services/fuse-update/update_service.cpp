@@ -25,6 +25,7 @@ UpdateService::UpdateService(const SystemConfig& config, transport::Participant&
       session_(transport::random_id()),
       updater_(config.estimator),
       monitor_(config.estimator.tracking),
+      frame_(config.estimator),
       backlog_(config.estimator.preprocess, config.update.max_backlog_s),
       unacked_({config.update.max_unacked, config.update.max_unacked_bytes, config.update.resend_after_s}),
       counters_(logger(kName)),
@@ -51,12 +52,22 @@ UpdateService::UpdateService(const SystemConfig& config, transport::Participant&
   // generated type's decoding for ~20k points, on the scan's way to the update.
   scan_sub_ = std::make_unique<transport::RawSubscriber<fuse_msgs::LidarScan>>(
       participant, transport::topics::kLidarScan, [this](const std::uint8_t* data, std::size_t size) { on_scan(data, size); });
+  set_pose_server_ = std::make_unique<transport::RpcServer<fuse_msgs::SetPoseRequest, fuse_msgs::SetPoseReply>>(
+      participant, transport::services::kSetPose,
+      [this](const fuse_msgs::SetPoseRequest& req, fuse_msgs::SetPoseReply& rep) { on_set_pose(req, rep); },
+      transport::Dispatch::kWorker);  // waits for the verdict
   health_ = std::make_unique<HealthReporter>(participant, kName, config.health.period_s, config.health.instance_window_s, [this] { return health(); });
   logger(kName)->info("session {:016x}", session_);
 }
 
 UpdateService::~UpdateService() {
   // Stop the callbacks before the members they use go away.
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    pose_requests_.clear();
+  }
+  verdict_cv_.notify_all();
+  set_pose_server_.reset();
   scan_sub_.reset();
   corrected_sub_.reset();
   status_sub_.reset();
@@ -156,10 +167,13 @@ void UpdateService::sync_map(double timeout_s) {
   if (replica_complete_) chunks_.clear();  // else kept: the rest are still to come
   replica_epoch_ = status_.epoch();
   replica_mode_ = status_.mode();
-  if (replica_mode_ == "mapping" || replica_mode_ == "localization") updater_.set_map_mode(replica_mode_);
+  if ((replica_mode_ == "mapping" || replica_mode_ == "localization") && frame_.writes_map()) {
+    updater_.set_map_mode(replica_mode_);
+  }
   state_ = "running";
   logger(kName)->info("replica of map epoch {} built from the map server: {} points; mode {}", replica_epoch_, n,
                       replica_mode_);
+  frame_.map_replaced(updater_, map_context(), last_scan_t_);
 }
 
 void UpdateService::run() {
@@ -184,9 +198,11 @@ void UpdateService::run() {
       if (!replica_complete_ && chunks_complete()) resync = true;  // the rest of the map has arrived
       if (have_status_ && status_.mode() != replica_mode_ && !resync) {
         replica_mode_ = status_.mode();
-        if (replica_mode_ == "mapping" || replica_mode_ == "localization") {
+        if ((replica_mode_ == "mapping" || replica_mode_ == "localization") && frame_.writes_map()) {
           updater_.set_map_mode(replica_mode_);
           logger(kName)->info("map mode is now {}", replica_mode_);
+        } else if (!frame_.writes_map()) {
+          logger(kName)->info("map mode is now {}: taken once the session is located in the map", replica_mode_);
         }
       }
       if (!resync && !backlog_.empty()) {
@@ -290,8 +306,14 @@ UpdateService::Fetch UpdateService::fetch_history(const LidarScan& scan, StateHi
       counters_.count("history_invalid", "history covariance is not finite");
       return Fetch::kSkip;
     }
+    if (!valid(result.reply.map_frame())) {
+      counters_.count("history_invalid", "history reply names an unknown map frame state " +
+                                             std::to_string(static_cast<long long>(result.reply.map_frame())));
+      return Fetch::kSkip;
+    }
     out.assign(entries, result.reply.last_correction_time());
-    bring_up_to_date(out, result.reply.last_correction_time());
+    slice_frame_ = WorldFrame{result.reply.map_frame(), result.reply.frame_epoch()};
+    slice_last_correction_t_ = result.reply.last_correction_time();
     return Fetch::kOk;
   }
 }
@@ -348,6 +370,20 @@ UpdateService::Outcome UpdateService::process(LidarScan& scan) {
       return Outcome::kDone;
     case Fetch::kOk: break;
   }
+  // Into this instance's world frame (fuse-state may not have applied its newest change yet), then
+  // up to its newest posterior.
+  FrameLocalizer::MapContext map;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    map = map_context();
+    while (!pose_requests_.empty()) {
+      frame_.request_pose(pose_requests_.front().id, pose_requests_.front().pose, pose_requests_.front().t);
+      pose_checks_.push_back(pose_requests_.front().id);
+      pose_requests_.pop_front();
+    }
+  }
+  if (frame_.reconcile(slice_frame_, history, updater_, map)) last_posterior_.reset();
+  bring_up_to_date(history, slice_last_correction_t_);
   last_scan_t_ = scan.t_end;
   // A lost track keeps trying: the scan is re-localised from a widened prior (as in fuse-run).
   if (monitor_.wants_relocalisation()) widen_prior(history, scan.t_end, config_.estimator);
@@ -355,6 +391,12 @@ UpdateService::Outcome UpdateService::process(LidarScan& scan) {
   try {
     report = updater_.process(scan, history);
     monitor_.on_scan(report);
+    const LocalizationEvent e = frame_.step(report, history, updater_, lost_for(monitor_));
+    if (e.kind == LocalizationEvent::Kind::kTaken || e.kind == LocalizationEvent::Kind::kDropped) last_posterior_.reset();
+    if (e.kind == LocalizationEvent::Kind::kConfirmed && (replica_mode_ == "mapping" || replica_mode_ == "localization")) {
+      updater_.set_map_mode(replica_mode_);
+    }
+    after_localization_step(e);
   } catch (const DivergenceError& e) {
     {
       std::lock_guard<std::mutex> lock(mutex_);
@@ -405,8 +447,10 @@ UpdateService::Outcome UpdateService::process(LidarScan& scan) {
     std::lock_guard<std::mutex> lock(mutex_);
     last_error_ = std::string(to_string(monitor_.status())) + ": " + monitor_.reason();
   }
+  frame_.fill(c);
   corrections_.publish(c);
-  offer_to_map(scan.t_end);
+  gravity_ = q.x.g;
+  if (frame_.writes_map()) offer_to_map(scan.t_end);
   std::lock_guard<std::mutex> lock(mutex_);
   updater_counts_ = updater_.counters().map();
   counters_.add("scans_processed");
@@ -423,6 +467,12 @@ void UpdateService::offer_to_map(double t) {
   m.t(t);
   const Eigen::Isometry3d& T = updater_.last_T_world_lidar();
   m.sensor_pose(to_pose(T.translation(), T.linear()));
+  if (gravity_.allFinite() && gravity_.norm() > 0.0) {
+    const Eigen::Vector3d g = gravity_.normalized();
+    m.gravity().x(g.x());
+    m.gravity().y(g.y());
+    m.gravity().z(g.z());
+  }
   m.points().resize(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) {
     m.points()[i].x(points[i].x());
@@ -453,16 +503,104 @@ void UpdateService::resend_unacked(bool all) {
   for (const auto& m : resend) observations_.publish(m);
 }
 
+FrameLocalizer::MapContext UpdateService::map_context() const {
+  FrameLocalizer::MapContext m;
+  m.mode = have_status_ ? status_.mode() : config_.estimator.map.mode;
+  if (have_status_) {
+    const Eigen::Vector3d g(status_.gravity().x(), status_.gravity().y(), status_.gravity().z());
+    if (g.allFinite() && g.norm() > 0.5) m.gravity = g.normalized();
+  }
+  return m;
+}
+
+void UpdateService::after_localization_step(const LocalizationEvent& e) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  switch (e.kind) {
+    case LocalizationEvent::Kind::kTaken: counters_.count("global_location_taken", e.message); break;
+    case LocalizationEvent::Kind::kConfirmed: counters_.count("global_localized", e.message); break;
+    case LocalizationEvent::Kind::kDropped:
+      counters_.count("global_localization_dropped", "global localization dropped: " + e.message);
+      break;
+    case LocalizationEvent::Kind::kSearchStarted: counters_.count("lost_search", e.message); break;
+    case LocalizationEvent::Kind::kNone: break;
+  }
+  localization_ = frame_.describe();
+  relocalizing_ = frame_.frame().relocalizing();
+  bool decided = false;
+  for (auto it = pose_checks_.begin(); it != pose_checks_.end();) {
+    const PoseVerdict v = frame_.verdict(*it);
+    pose_verdicts_[*it] = v;
+    if (v.result == fuse_msgs::SET_POSE_PENDING) {
+      ++it;
+      continue;
+    }
+    decided = true;
+    counters_.count(v.result == fuse_msgs::SET_POSE_REFUSED ? "set_pose_refused" : "set_pose_accepted",
+                    fmt::format("set-pose request {}: {}", *it, v.detail));
+    it = pose_checks_.erase(it);
+  }
+  if (decided) verdict_cv_.notify_all();
+}
+
+void UpdateService::on_set_pose(const fuse_msgs::SetPoseRequest& req, fuse_msgs::SetPoseReply& rep) {
+  const Eigen::Vector3d p(req.position().x(), req.position().y(), req.position().z());
+  constexpr double kMaxCoordinate = 1e6;  // m: beyond any map
+  std::string bad;
+  if (!p.allFinite() || p.cwiseAbs().maxCoeff() > kMaxCoordinate) bad = "position must be finite and within 1e6 m";
+  else if (!std::isfinite(req.yaw())) bad = "yaw must be finite";
+  else if (!(req.std_xy() > 0.0 && req.std_xy() <= 100.0)) bad = "std_xy must be in (0, 100] m";
+  else if (!(req.std_yaw() > 0.0 && req.std_yaw() <= M_PI)) bad = "std_yaw must be in (0, pi] rad";
+  else if (!(req.wait_s() >= 0.0 && req.wait_s() <= 30.0)) bad = "wait_s must be in [0, 30] s";
+  else if (!(std::isfinite(req.t()) && req.t() >= 0.0)) bad = "t must be finite and >= 0 (0: now)";
+  std::unique_lock<std::mutex> lock(mutex_);
+  if (!bad.empty()) {
+    counters_.count("set_pose_bad_request", "set-pose request refused: " + bad);
+    rep.error(fuse_msgs::RPC_BAD_REQUEST);
+    rep.error_message(bad);
+    return;
+  }
+  InitialPose pose;
+  pose.position = p;
+  pose.yaw = req.yaw();
+  pose.std_xy = req.std_xy();
+  pose.std_z = req.std_xy();  // an operator rarely knows the height better than the position
+  pose.std_yaw = req.std_yaw();
+  const std::uint64_t id = ++next_pose_id_;
+  pose_requests_.push_back({id, pose, req.t()});
+  pose_verdicts_[id] = PoseVerdict{};
+  while (pose_verdicts_.size() > 16) pose_verdicts_.erase(pose_verdicts_.begin());
+  logger(kName)->info("set-pose request {}: ({:.2f}, {:.2f}, {:.2f}) m, heading {:.1f} deg, sigma {:.2f} m / {:.1f} deg", id,
+                      p.x(), p.y(), p.z(), req.yaw() * 180.0 / M_PI, req.std_xy(), req.std_yaw() * 180.0 / M_PI);
+  cv_.notify_one();
+  const auto until = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(req.wait_s()));
+  verdict_cv_.wait_until(lock, until, [&] {
+    const auto it = pose_verdicts_.find(id);
+    return stop_requested() || it == pose_verdicts_.end() || it->second.result != fuse_msgs::SET_POSE_PENDING;
+  });
+  const auto it = pose_verdicts_.find(id);
+  const PoseVerdict v = it != pose_verdicts_.end() ? it->second : PoseVerdict{};
+  rep.result(v.result);
+  rep.position().x(v.position.x());
+  rep.position().y(v.position.y());
+  rep.position().z(v.position.z());
+  rep.yaw(v.yaw);
+  rep.offset(v.offset);
+  rep.turn(v.turn);
+  rep.detail(v.result == fuse_msgs::SET_POSE_PENDING ? "still being checked: queries say relocalizing until it is decided"
+                                                     : v.detail.substr(0, 255));
+}
+
 HealthSnapshot UpdateService::health() {
   std::lock_guard<std::mutex> lock(mutex_);
   HealthSnapshot s;
   s.state = state_;
   s.counters = counters_.map();
+  if (relocalizing_ && state_ == "running") s.state = "relocalizing";  // searching the saved map
   for (const auto& [k, v] : updater_counts_) s.counters[k] += v;
   s.counters["observations_unacked"] = unacked_.size();
   s.counters["scans_queued"] = backlog_.size();
   s.counters["observations_unacked_bytes"] = unacked_.bytes();
-  s.last_error = last_error_;
+  s.last_error = s.state == "relocalizing" ? "relocalizing: " + localization_ : last_error_;
   return s;
 }
 

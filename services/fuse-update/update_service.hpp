@@ -15,6 +15,9 @@
 // processed in order once it can: a restart costs latency, not poses. Each history slice is
 // brought up to this instance's own newest posterior when fuse-state has not applied it yet, so
 // the scans of a backlog chain exactly as in the single-process estimator.
+// World frame against a saved map (FrameLocalizer): a session that starts on a saved map searches
+// it for its place, in its own frame, before it tracks and extends the map in the map's frame;
+// RPC update/set_pose gives it a pose to search around (served here, where map and search are).
 #pragma once
 
 #include <condition_variable>
@@ -31,6 +34,7 @@
 #include "fuse/service/health.hpp"
 #include "fuse/service/scan_backlog.hpp"
 #include "fuse/service/system_config.hpp"
+#include "frame_localizer.hpp"
 #include "fuse/transport/rpc.hpp"
 #include "unacked_observations.hpp"
 
@@ -63,6 +67,12 @@ class UpdateService {
   void publish_skipped(const LidarScan& scan);
   void offer_to_map(double t);
   void resend_unacked(bool all);
+  /// RPC update/set_pose: waits (its own thread) for the verdict, at most the request's wait_s.
+  void on_set_pose(const fuse_msgs::SetPoseRequest& req, fuse_msgs::SetPoseReply& rep);
+  /// The saved map's mode and gravity as the map server says (mutex_ held).
+  FrameLocalizer::MapContext map_context() const;
+  /// After a scan: the localization's event logged and counted, set-pose verdicts handed over.
+  void after_localization_step(const LocalizationEvent& e);
   HealthSnapshot health();
 
   SystemConfig config_;
@@ -72,6 +82,10 @@ class UpdateService {
   double last_scan_t_ = -1.0;
   std::optional<Posterior> last_posterior_;  ///< worker thread only: the newest SCAN_UPDATED published
   std::uint64_t observation_sequence_ = 0;
+  FrameLocalizer frame_;  ///< worker thread only
+  WorldFrame slice_frame_;  ///< worker thread only: of the last history slice fetched
+  double slice_last_correction_t_ = 0.0;
+  Eigen::Vector3d gravity_ = Eigen::Vector3d::Zero();  ///< worker thread only: at the last scan, world frame
 
   std::mutex mutex_;  ///< guards what the DDS callbacks share with the worker
   std::condition_variable cv_;
@@ -92,6 +106,18 @@ class UpdateService {
   std::map<std::string, std::uint64_t> updater_counts_;  ///< copied from the worker after each scan
   std::string last_error_;
   std::string state_ = "starting";
+  struct PoseRequest {
+    std::uint64_t id;
+    InitialPose pose;
+    double t;
+  };
+  std::deque<PoseRequest> pose_requests_;  ///< set-pose requests for the worker
+  std::map<std::uint64_t, PoseVerdict> pose_verdicts_;  ///< what the worker decided (pending ones too)
+  std::vector<std::uint64_t> pose_checks_;  ///< worker thread only: requests whose verdict is pending
+  std::uint64_t next_pose_id_ = 0;
+  std::condition_variable verdict_cv_;
+  std::string localization_;  ///< the frame's state in words, for health
+  bool relocalizing_ = false;  ///< searching the saved map or confirming a location
 
   transport::Publisher<fuse_msgs::Correction> corrections_;
   transport::Publisher<fuse_msgs::MapObservation> observations_;
@@ -101,6 +127,7 @@ class UpdateService {
   std::unique_ptr<transport::RawSubscriber<fuse_msgs::LidarScan>> scan_sub_;
   std::unique_ptr<transport::Subscriber<fuse_msgs::StateEstimate>> corrected_sub_;
   double corrected_t_ = -1.0;  ///< newest state/corrected time: older scans were answered before
+  std::unique_ptr<transport::RpcServer<fuse_msgs::SetPoseRequest, fuse_msgs::SetPoseReply>> set_pose_server_;
   std::unique_ptr<HealthReporter> health_;
 };
 

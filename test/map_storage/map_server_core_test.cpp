@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <limits>
 
 #include "core_fixtures.hpp"
@@ -82,6 +83,26 @@ TEST(MapServerCore, ApplyReportsInsertedPointsAndChangedChunks) {
     moved += changed;
   });
   EXPECT_EQ(moved, third.changed_chunks.size());
+}
+
+TEST(MapServerCore, KeepsTheFirstMappingSessionsGravityInItsSnapshots) {
+  TempDir dir;
+  const Eigen::Vector3d g = Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitX()) * Eigen::Vector3d(0, 0, -9.81);
+  {
+    MapServerCore core(config_in(dir.path()));
+    EXPECT_FALSE(core.gravity().has_value()) << "a new map knows no gravity";
+    EXPECT_FALSE(core.note_gravity(Eigen::Vector3d(0, 9.81, 0), 0.35)) << "gravity along y is no map frame's";
+    EXPECT_FALSE(core.gravity().has_value());
+    EXPECT_TRUE(core.note_gravity(g, 0.35));
+    EXPECT_TRUE(core.note_gravity(Eigen::Vector3d(0, 0, -1), 0.35));  // a later session's: the first is kept
+    ASSERT_TRUE(core.gravity().has_value());
+    EXPECT_LT((*core.gravity() - g.normalized()).norm(), 1e-12);
+    core.apply(1, 1, 0.0, scan(1, 1));
+    core.save();
+  }
+  MapServerCore restarted(config_in(dir.path()));
+  ASSERT_TRUE(restarted.gravity().has_value()) << "the snapshot keeps it";
+  EXPECT_LT((*restarted.gravity() - g.normalized()).norm(), 1e-9);
 }
 
 TEST(MapServerCore, DuplicatesAreAcknowledgedButAppliedOnce) {

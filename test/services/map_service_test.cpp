@@ -601,6 +601,14 @@ TEST(MapService, ControlToolSwitchesModeSavesAndLoads) {
   EXPECT_EQ(ctl(dir, {"--domain", domain}).code, 2);
   EXPECT_EQ(ctl(dir, {"--domain", domain, "load"}).code, 2);
   EXPECT_EQ(ctl(dir, {"--domain", "59", "--deadline-ms", "300", "stats"}).code, 4);
+  // set-pose (served by fuse-update: none on this domain): four numbers, sigmas and a wait in range.
+  EXPECT_EQ(ctl(dir, {"--domain", domain, "set-pose", "1", "2"}).code, 2);
+  EXPECT_EQ(ctl(dir, {"--domain", domain, "set-pose", "1", "2", "0", "x"}).code, 2);
+  EXPECT_EQ(ctl(dir, {"--domain", domain, "set-pose", "1", "2", "0", "-30", "--std-xy", "0"}).code, 2);
+  EXPECT_EQ(ctl(dir, {"--domain", domain, "set-pose", "1", "2", "0", "-30", "--wait", "31"}).code, 2);
+  EXPECT_EQ(ctl(dir, {"--domain", domain, "set-pose", "1", "2", "0", "nan"}).code, 2);
+  const RunResult no_update = ctl(dir, {"--domain", domain, "--deadline-ms", "300", "set-pose", "1", "-2", "0", "-30", "--wait", "0"});
+  EXPECT_EQ(no_update.code, 4) << no_update.out;
 
   server->signal(SIGTERM);
   EXPECT_EQ(server->wait(10s), 0);

@@ -50,12 +50,15 @@ TEST(StateCheckpoint, RoundTripKeepsThePosteriorExactly) {
   Checkpoint written;
   written.posterior = some_posterior(1234.5678);
   written.map_drift = written.posterior.P.topLeftCorner<6, 6>() * 0.25;
+  written.frame = WorldFrame{fuse_msgs::MAP_FRAME_CONFIRMING, 7};  // a session confirming its place in a saved map
   const Posterior& in = written.posterior;
   write_checkpoint(file, written);
   std::string why;
   const auto read = read_checkpoint(file, why);
   ASSERT_TRUE(read) << why;
   EXPECT_EQ(read->map_drift, written.map_drift);
+  EXPECT_EQ(read->frame.state, fuse_msgs::MAP_FRAME_CONFIRMING);
+  EXPECT_EQ(read->frame.epoch, 7u);
   const Posterior* out = &read->posterior;
   EXPECT_EQ(out->t, in.t);
   EXPECT_EQ(out->x.p, in.x.p);
@@ -74,7 +77,7 @@ TEST(StateCheckpoint, AnUntrustworthyFileIsRefusedWithTheReason) {
   EXPECT_NE(why.find("no checkpoint"), std::string::npos) << why;
 
   const fs::path file = scratch("damaged.ckpt");
-  write_checkpoint(file, Checkpoint{some_posterior(10.0), PoseCovariance::Identity()});
+  write_checkpoint(file, Checkpoint{some_posterior(10.0), PoseCovariance::Identity(), {}});
   std::string bytes;
   {
     std::ifstream in(file, std::ios::binary);
@@ -110,8 +113,8 @@ TEST(StateCheckpoint, WriterKeepsTheNewestAndCountsFailures) {
   const fs::path file = scratch("writer.ckpt");
   {
     CheckpointWriter writer(file, 0.01);
-    for (int i = 1; i <= 50; ++i) writer.offer(Checkpoint{some_posterior(i), PoseCovariance::Zero()});
-    writer.offer(Checkpoint{some_posterior(3.0), PoseCovariance::Zero()});  // older than what was offered: ignored
+    for (int i = 1; i <= 50; ++i) writer.offer(Checkpoint{some_posterior(i), PoseCovariance::Zero(), {}});
+    writer.offer(Checkpoint{some_posterior(3.0), PoseCovariance::Zero(), {}});  // older than what was offered: ignored
   }  // the destructor writes what is pending
   std::string why;
   const auto out = read_checkpoint(file, why);
@@ -119,7 +122,7 @@ TEST(StateCheckpoint, WriterKeepsTheNewestAndCountsFailures) {
   EXPECT_EQ(out->posterior.t, 50.0);
 
   CheckpointWriter broken(scratch("no-such-dir") / "x.ckpt", 0.01);
-  broken.offer(Checkpoint{some_posterior(1.0), PoseCovariance::Zero()});
+  broken.offer(Checkpoint{some_posterior(1.0), PoseCovariance::Zero(), {}});
   for (int i = 0; i < 500 && broken.failures() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   EXPECT_EQ(broken.failures(), 1u);
   EXPECT_NE(broken.last_error().find("cannot write checkpoint"), std::string::npos) << broken.last_error();

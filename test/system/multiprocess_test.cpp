@@ -33,8 +33,10 @@
 #include "fuse/eval/trajectory.hpp"
 #include "fuse/launch/process.hpp"
 #include "fuse/map/map_server_core.hpp"
+#include "fuse/map/map_storage.hpp"
 #include "fuse/service/system_config.hpp"
 #include "fuse/transport/msg_traits.hpp"
+#include "fuse/transport/rpc.hpp"
 #include "faulty_sequence.hpp"
 #include "runner.hpp"
 
@@ -746,6 +748,161 @@ TEST_F(MultiProcess, ImuDropoutAndTimeOutlierGiveTheSingleProcessTrajectory) {
   EXPECT_LE(worst, 1e-3);
   EXPECT_LT(ate_multi, 2.0 * ate_clean);
   fs::remove_all(faulty);
+}
+
+// ---- Starting anywhere in a saved map, with the services ------------------------------------
+// A map of one walk (fuse-run --save-map) in the map directory; another walk through the same
+// world that starts 25 m along the path (corridor_start25, at rest). The services search the
+// saved map (relocalizing, nothing written), an operator's wrong pose is refused and a near one
+// accepted (update/set_pose, what fuse-map-ctl set-pose sends); then the session tracks, and
+// extends the map, in the map's frame. Domain 57.
+class StartAnywhereServices : public ::testing::Test {
+ protected:
+  static inline const std::string kMapWalk = std::string(FUSE_TEST_DATA) + "/corridor60";
+  static inline const std::string kElsewhere = std::string(FUSE_TEST_DATA) + "/corridor_start25";
+
+  static void SetUpTestSuite() {
+    if (!fs::exists(kMapWalk + "/recording.mcap") || !fs::exists(kElsewhere + "/recording.mcap")) return;
+    map_file_ = Pipeline::kOut + "/start-anywhere-map.snapshot";
+    fs::create_directories(Pipeline::kOut);
+    RunnerConfig mapping = load_runner_config(kConfig);
+    mapping.save_map = map_file_;
+    const RunSummary first = run_offline(mapping, kMapWalk + "/recording.mcap", "");
+    ASSERT_TRUE(first.error.empty()) << first.error;
+    const auto assoc = eval::associate_by_time(eval::read_tum(kMapWalk + "/groundtruth.tum"), first.trajectory);
+    gt_to_map_ = eval::align(assoc.estimate, assoc.reference, eval::AlignmentMode::kSE3);
+    // Cut at x = 45 m: the second walk (x 25 -> 60 m in the map frame) sees what the map lacks, for
+    // mapping to add once the session is located (the same corridor everywhere else: nothing new).
+    PointMap map, cropped;
+    MapMeta meta;
+    ASSERT_TRUE(MapStorage::read_snapshot_file(map_file_, map, meta).snapshot_ok);
+    cropped = PointMap(map.chunk_size());
+    std::vector<Eigen::Vector3f> kept;
+    map.for_each_chunk([&](const PointChunk& c) {
+      for (const Eigen::Vector3f& q : c.points) {
+        if (q.x() < 45.0f) kept.push_back(q);
+      }
+    });
+    cropped.insert(kept);
+    MapStorage::write_snapshot_file(map_file_, cropped, meta);
+  }
+  void SetUp() override {
+    if (!fs::exists(kMapWalk + "/recording.mcap") || !fs::exists(kElsewhere + "/recording.mcap")) {
+      GTEST_SKIP() << "fixtures missing: " << kMapWalk << ", " << kElsewhere;
+    }
+  }
+  /// The walk's true IMU pose at sensor time t in the map frame (the mapping walk's alignment),
+  /// moved by (dx, 0) and turned by dyaw, as a set-pose request.
+  static fuse_msgs::SetPoseRequest pose_at(double t, double dx, double dyaw, double std_xy, double std_yaw) {
+    const eval::Trajectory gt = eval::transform(eval::read_tum(kElsewhere + "/groundtruth.tum"), gt_to_map_);
+    auto it = std::lower_bound(gt.begin(), gt.end(), t, [](const StampedPose& a, double v) { return a.t < v; });
+    if (it == gt.end()) it = std::prev(gt.end());
+    const Eigen::Matrix3d R = it->q.toRotationMatrix();
+    fuse_msgs::SetPoseRequest req;
+    req.position().x(it->p.x() + dx);
+    req.position().y(it->p.y());
+    req.position().z(it->p.z());
+    req.yaw(std::atan2(R(1, 0), R(0, 0)) + dyaw);
+    req.std_xy(std_xy);
+    req.std_yaw(std_yaw);
+    req.wait_s(20.0);
+    req.t(t);
+    return req;
+  }
+  static inline std::string map_file_;
+  static inline eval::Similarity3 gt_to_map_;
+};
+
+TEST_F(StartAnywhereServices, AWrongPoseIsRefusedANearOneAcceptedAndTheMapExtendedInItsFrame) {
+  const int domain = 57;
+  StatusWatch status(domain);
+  Pipeline p("start-anywhere", domain, {"--set", "estimator.map.mode=mapping"});
+  fs::create_directories(p.dir() + "/map");
+  fs::copy_file(map_file_, p.dir() + "/map/map.snapshot");
+  transport::TransportConfig tc;
+  tc.domain_id = domain;
+  auto participant = transport::make_participant(tc, "test-operator");
+  transport::RpcClient<fuse_msgs::QueryRequest, fuse_msgs::QueryReply> query(*participant, transport::services::kQuery);
+  transport::RpcClient<fuse_msgs::SetPoseRequest, fuse_msgs::SetPoseReply> set_pose(*participant, transport::services::kSetPose);
+  p.start_backend();
+  p.start("fuse-ingest", kElsewhere, {"--mode", "lockstep"});
+
+  // Searching: every reply says relocalizing, in the session's own frame; the map is untouched.
+  fuse_msgs::QueryReply searching;
+  const auto deadline = std::chrono::steady_clock::now() + 60s;
+  while (std::chrono::steady_clock::now() < deadline) {
+    fuse_msgs::QueryRequest req;
+    req.latest(true);
+    const auto r = query.call(req, 2000ms);
+    if (r.ok() && r.reply.estimate().map_frame() == fuse_msgs::MAP_FRAME_SEARCHING) {
+      searching = r.reply;
+      break;
+    }
+    std::this_thread::sleep_for(20ms);
+  }
+  ASSERT_EQ(searching.estimate().map_frame(), fuse_msgs::MAP_FRAME_SEARCHING) << p.diagnose();
+  EXPECT_EQ(searching.estimate().status(), fuse_msgs::STATUS_RELOCALIZING);
+  EXPECT_NE(std::string(searching.error_message()).find("searching"), std::string::npos) << searching.error_message();
+  const std::uint64_t points_before = status.last().points();
+  ASSERT_GT(points_before, 0u);
+
+  // 2 m and 30 deg off with sigma 0.3 m / 3 deg: nothing in its window fits.
+  const double t0 = searching.estimate().t();
+  auto wrong = set_pose.call(pose_at(t0, 2.0, 30.0 * M_PI / 180.0, 0.3, 3.0 * M_PI / 180.0), 30s);
+  ASSERT_TRUE(wrong.ok()) << wrong.message;
+  EXPECT_EQ(wrong.reply.result(), fuse_msgs::SET_POSE_REFUSED) << wrong.reply.detail();
+  EXPECT_EQ(status.last().points(), points_before) << "the map changed while the session was not located";
+
+  // 0.4 m and 4 deg off with sigma 1 m / 10 deg, at the time of the newest state, from the
+  // operator's tool.
+  fuse_msgs::QueryRequest latest;
+  latest.latest(true);
+  const auto now = query.call(latest, 2000ms);
+  ASSERT_TRUE(now.ok() || now.status == fuse_msgs::RPC_OK) << now.message;
+  const fuse_msgs::SetPoseRequest near = pose_at(now.reply.estimate().t(), 0.4, 4.0 * M_PI / 180.0, 1.0, 10.0 * M_PI / 180.0);
+  auto number = [](double v) { return std::to_string(v); };
+  const std::string tool_log = p.dir() + "/logs/fuse-map-ctl.log";
+  const auto asked = std::chrono::steady_clock::now();
+  Process tool = Process::spawn({kBin + "/fuse-map-ctl", "--domain", std::to_string(domain), "--deadline-ms", "20000", "--json",
+                                 "set-pose", number(near.position().x()), number(near.position().y()),
+                                 number(near.position().z()), number(near.yaw() * 180.0 / M_PI), "--std-xy", "1",
+                                 "--std-yaw", "10", "--wait", "20", "--time", number(now.reply.estimate().t())},
+                                tool_log);
+  const auto tool_status = tool.wait_for(60s);
+  const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - asked).count();
+  const std::string verdict = read_file(tool_log);
+  ASSERT_TRUE(tool_status && tool_status->code == 0) << verdict << "\n" << p.diagnose();
+  RecordProperty("set_pose_wall_s", std::to_string(took));
+  EXPECT_TRUE(verdict.find("\"result\": \"accepted\"") != std::string::npos ||
+              verdict.find("\"result\": \"corrected\"") != std::string::npos)
+      << verdict;
+  const auto offset_at = verdict.find("\"offset\": ");
+  ASSERT_NE(offset_at, std::string::npos) << verdict;
+  EXPECT_LT(std::stod(verdict.substr(offset_at + 10)), 1.0) << verdict;
+
+  EXPECT_EQ(p.wait_ingest(kReplayTimeout), 0) << p.log("fuse-ingest", 1);
+  const auto after = query.call(latest, 2000ms);
+  EXPECT_EQ(after.reply.estimate().map_frame(), fuse_msgs::MAP_FRAME_LOCALIZED);
+  EXPECT_TRUE(p.stop_all());
+  const std::uint64_t points_after = status.last().points();
+  RecordProperty("map_points_before", std::to_string(points_before));
+  RecordProperty("map_points_after", std::to_string(points_after));
+  EXPECT_GT(points_after, points_before) << "mapping after the location did not extend the map";
+
+  // Every pose fuse-state wrote (those from before the location too) in the map frame, unaligned.
+  const auto trajectory = eval::read_tum(p.trajectory());
+  ASSERT_GT(trajectory.size(), 200u);
+  const auto assoc = eval::associate_by_time(eval::transform(eval::read_tum(kElsewhere + "/groundtruth.tum"), gt_to_map_),
+                                             trajectory);
+  double worst = 0.0;
+  for (std::size_t i = 0; i < assoc.estimate.size(); ++i) {
+    worst = std::max(worst, (assoc.reference[i].p - assoc.estimate[i].p).norm());
+  }
+  RecordProperty("max_error_m", std::to_string(worst));
+  std::cout << "start anywhere (services): set-pose accepted in " << took << " s, " << trajectory.size()
+            << " poses, largest error in the map frame " << worst << " m; map " << points_before << " -> " << points_after
+            << " points\n";
+  EXPECT_LT(worst, 0.25);
 }
 
 }  // namespace

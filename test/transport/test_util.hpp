@@ -172,6 +172,8 @@ inline fuse_msgs::StateEstimate make_state(int seed) {
   m.host_clock_known(true);
   m.host_realtime_offset(v(seed, 7));
   m.host_monotonic_offset(-v(seed, 8));
+  m.map_frame(fuse_msgs::MAP_FRAME_SEARCHING);
+  m.localization_candidates(static_cast<std::uint32_t>(seed + 2));
   return m;
 }
 
@@ -195,6 +197,11 @@ inline fuse_msgs::Correction make_correction(int seed) {
   m.update_ms(3.25);
   m.converged(true);
   m.result(fuse_msgs::SCAN_PRIOR_ONLY);
+  m.map_frame(fuse_msgs::MAP_FRAME_CONFIRMING);
+  m.frame_epoch(static_cast<std::uint32_t>(seed + 1));
+  m.frame_change(pose(seed, 7));
+  m.localization_candidates(3);
+  m.localization("searching (ambiguous: 3 candidate(s))");
   return m;
 }
 
@@ -216,6 +223,7 @@ inline fuse_msgs::MapObservation make_observation(int seed) {
   m.sensor_pose(pose(seed, 1));
   m.points(points3f(seed, 23));
   m.lowest_unacked(seed + 1);
+  m.gravity(vec(seed, 9));
   return m;
 }
 
@@ -253,6 +261,7 @@ inline fuse_msgs::MapStatus make_map_status(int seed) {
   m.journal_records(1000);
   m.last_error("disk full? no: seed " + std::to_string(seed));
   m.sessions(session_acks(seed));
+  m.gravity(vec(seed, 10));
   return m;
 }
 
@@ -326,6 +335,8 @@ inline fuse_msgs::HistoryReply make_history_reply(int seed) {
     m.entries().push_back(e);
   }
   for (std::size_t i = 0; i < m.covariance().size(); ++i) m.covariance()[i] = v(seed, static_cast<int>(i));
+  m.map_frame(fuse_msgs::MAP_FRAME_LOCALIZED);
+  m.frame_epoch(static_cast<std::uint32_t>(seed + 4));
   return m;
 }
 
@@ -364,6 +375,32 @@ inline fuse_msgs::MapControlReply make_map_control_reply(int seed) {
   return m;
 }
 
+inline fuse_msgs::SetPoseRequest make_set_pose_request(int seed) {
+  fuse_msgs::SetPoseRequest m;
+  m.header(header(seed));
+  m.position(vec(seed, 1));
+  m.yaw(v(seed, 2));
+  m.std_xy(1.5);
+  m.std_yaw(0.25);
+  m.wait_s(5.0);
+  m.t(v(seed, 3));
+  return m;
+}
+
+inline fuse_msgs::SetPoseReply make_set_pose_reply(int seed) {
+  fuse_msgs::SetPoseReply m;
+  m.header(header(seed));
+  m.error(fuse_msgs::RPC_OK);
+  m.error_message("");
+  m.result(fuse_msgs::SET_POSE_CORRECTED);
+  m.position(vec(seed, 3));
+  m.yaw(v(seed, 4));
+  m.offset(0.75);
+  m.turn(-0.125);
+  m.detail("confirmed 0.75 m from the pose given");
+  return m;
+}
+
 /// One filled sample of each type, and the topic it travels on in the tests.
 template <class T>
 struct Sample;
@@ -387,6 +424,8 @@ FUSE_TEST_SAMPLE(HistoryRequest, request_topic(services::kHistory), make_history
 FUSE_TEST_SAMPLE(HistoryReply, reply_topic(services::kHistory), make_history_reply)
 FUSE_TEST_SAMPLE(MapControlRequest, request_topic(services::kMapControl), make_map_control_request)
 FUSE_TEST_SAMPLE(MapControlReply, reply_topic(services::kMapControl), make_map_control_reply)
+FUSE_TEST_SAMPLE(SetPoseRequest, request_topic(services::kSetPose), make_set_pose_request)
+FUSE_TEST_SAMPLE(SetPoseReply, reply_topic(services::kSetPose), make_set_pose_reply)
 #undef FUSE_TEST_SAMPLE
 
 /// Calls f(T{}) for every type in msg_traits.hpp.
@@ -406,6 +445,8 @@ void for_each_type(F&& f) {
   f(fuse_msgs::HistoryReply{});
   f(fuse_msgs::MapControlRequest{});
   f(fuse_msgs::MapControlReply{});
+  f(fuse_msgs::SetPoseRequest{});
+  f(fuse_msgs::SetPoseReply{});
 }
 
 }  // namespace fuse::transport::test

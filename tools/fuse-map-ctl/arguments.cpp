@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cerrno>
+#include <cmath>
 #include <cstdlib>
 #include <stdexcept>
 
@@ -52,8 +53,10 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
       "Controls the running map server (fuse-map) through its map/control service: one command, --mode M, "
       "save [NAME], load NAME or stats; prints the map's state after it (or one JSON object). A NAME is a saved "
       "map's file name in the map server's directory of saved maps (map_server.saved_directory, by default "
-      "DIR/saved); paths are refused.",
-      "Exit codes: 0 done, 2 usage or config, 3 error reply, 4 no server answered before the deadline.");
+      "DIR/saved); paths are refused. set-pose gives the estimator (fuse-update's update/set_pose service) a "
+      "pose in the map to search around, as rviz's 2D Pose Estimate, and prints its verdict.",
+      "Exit codes: 0 done (set-pose: accepted or corrected), 2 usage or config, 3 error reply (set-pose: "
+      "refused), 4 no server answered before the deadline, 5 set-pose still being checked after --wait.");
   std::string deadline;
   app->add_option("--mode", a.mode, "mapping (observations change the map) or localization (the map is frozen)")
       ->type_name("M")
@@ -77,17 +80,35 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
   load->add_flag("--other-system", a.other_system,
                  "NAME was recorded by another system (another transport.system_name): replace this system's map "
                  "with it anyway (fuse-map logs it); without it such a load is refused");
+  CLI::App* set_pose = app->add_subcommand(
+      "set-pose",
+      "an initial pose in the saved map: the IMU at X Y Z (m) heading YAW_DEG (deg) in the map frame; the estimator "
+      "searches within 3 sigma of it and says whether it was accepted, corrected (located more than 0.5 m or 5 deg "
+      "away) or refused (nothing there fits the map)");
+  set_pose->add_option("POSE", a.pose, "X Y Z YAW_DEG")->expected(4)->required()->allow_extra_args(false);
+  set_pose->add_option("--std-xy", a.std_xy, "position sigma, m (default 1)")->check(CLI::Range(0.01, 100.0));
+  set_pose->add_option("--std-yaw", a.std_yaw, "heading sigma, deg (default 10)")->check(CLI::Range(0.1, 180.0));
+  set_pose->add_option("--wait", a.wait_s, "seconds to wait for the verdict (default 10, at most 30)")
+      ->check(CLI::Range(0.0, 30.0));
+  set_pose->add_option("--time", a.time,
+                       "sensor time (s) the pose holds for, within the last 60 s (fuse-query prints it; default: now)")
+      ->check(CLI::PositiveNumber);
   app->require_subcommand(0, 1);
   if (const std::optional<int> code = cli::parse(*app, argc, argv)) return code;
 
   const int commands = (app->count("--mode") > 0 ? 1 : 0) + (stats->parsed() ? 1 : 0) + (save->parsed() ? 1 : 0) +
-                       (load->parsed() ? 1 : 0);
-  if (commands == 0) return cli::usage_error(*app, "no command (--mode, save, load or stats)");
-  if (commands > 1) return cli::usage_error(*app, "give one command only (--mode, save, load or stats)");
+                       (load->parsed() ? 1 : 0) + (set_pose->parsed() ? 1 : 0);
+  if (commands == 0) return cli::usage_error(*app, "no command (--mode, save, load, stats or set-pose)");
+  if (commands > 1) return cli::usage_error(*app, "give one command only (--mode, save, load, stats or set-pose)");
   a.command = app->count("--mode") > 0 ? Command::kSetMode
               : stats->parsed()        ? Command::kStats
               : save->parsed()         ? Command::kSave
+              : set_pose->parsed()     ? Command::kSetPose
                                        : Command::kLoad;
+  if (set_pose->parsed() && a.pose.size() != 4) return cli::usage_error(*set_pose, "POSE: give X Y Z YAW_DEG");
+  for (const double v : a.pose) {
+    if (!std::isfinite(v) || std::abs(v) > 1e6) return cli::usage_error(*set_pose, "POSE: X Y Z YAW_DEG must be finite numbers");
+  }
   try {
     if (!deadline.empty()) a.deadline_ms = parse_deadline("--deadline-ms", deadline);
   } catch (const std::invalid_argument& e) {

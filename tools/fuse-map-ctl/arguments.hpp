@@ -9,7 +9,7 @@
 
 namespace fuse::map_ctl {
 
-enum class Command { kNone, kStats, kSetMode, kSave, kLoad };
+enum class Command { kNone, kStats, kSetMode, kSave, kLoad, kSetPose };
 
 struct Arguments {
   Command command = Command::kNone;
@@ -20,6 +20,12 @@ struct Arguments {
   int deadline_ms = 5000;
   bool json = false;
   bool other_system = false;  ///< load NAME --other-system: NAME may be another system's map
+  /// set-pose X Y Z YAW_DEG: the IMU's pose in the map frame, its sigmas and how long to wait
+  std::vector<double> pose;
+  double std_xy = 1.0;    ///< m
+  double std_yaw = 10.0;  ///< deg
+  double wait_s = 10.0;
+  double time = 0.0;  ///< sensor time the pose holds for; 0: now
 };
 
 /// Parses and checks argv into `a` (CLI11, the convention of every binary: fuse/cli/cli.hpp).

@@ -98,4 +98,47 @@ std::string format_json(const std::string& command, fuse_msgs::RpcStatus status,
          ",\"load_chunks_lost\":" + std::to_string(r.load_chunks_lost()) + ",\"sessions\":" + sessions + "}\n";
 }
 
+std::string result_name(fuse_msgs::SetPoseResult result) {
+  switch (result) {
+    case fuse_msgs::SET_POSE_ACCEPTED: return "accepted";
+    case fuse_msgs::SET_POSE_CORRECTED: return "corrected";
+    case fuse_msgs::SET_POSE_REFUSED: return "refused";
+    case fuse_msgs::SET_POSE_PENDING: return "pending";
+  }
+  return "unknown";
+}
+
+namespace {
+std::string number(double v, int decimals) {
+  char buf[48];
+  std::snprintf(buf, sizeof(buf), "%.*f", decimals, v);
+  return buf;
+}
+constexpr double kDeg = 180.0 / 3.14159265358979323846;
+}  // namespace
+
+std::string format_text(const fuse_msgs::SetPoseReply& r) {
+  std::string out = line("result", result_name(r.result()));
+  if (r.result() == fuse_msgs::SET_POSE_ACCEPTED || r.result() == fuse_msgs::SET_POSE_CORRECTED) {
+    out += line("position", number(r.position().x(), 3) + " " + number(r.position().y(), 3) + " " +
+                                number(r.position().z(), 3) + " m");
+    out += line("yaw", number(r.yaw() * kDeg, 2) + " deg");
+    out += line("offset", number(r.offset(), 3) + " m");
+    out += line("turn", number(r.turn() * kDeg, 2) + " deg");
+  }
+  return out + line("detail", std::string(r.detail()));
+}
+
+std::string format_json(fuse_msgs::RpcStatus status, const std::string& message, const fuse_msgs::SetPoseReply& r) {
+  std::string s = "{\"command\": \"set-pose\", \"status\": " + json_string(status_name(status)) +
+                  ", \"message\": " + json_string(message);
+  if (status == fuse_msgs::RPC_OK) {
+    s += ", \"result\": " + json_string(result_name(r.result())) + ", \"position\": [" + number(r.position().x(), 6) +
+         ", " + number(r.position().y(), 6) + ", " + number(r.position().z(), 6) + "], \"yaw\": " + number(r.yaw(), 6) +
+         ", \"offset\": " + number(r.offset(), 6) + ", \"turn\": " + number(r.turn(), 6) +
+         ", \"detail\": " + json_string(std::string(r.detail()));
+  }
+  return s + "}\n";
+}
+
 }  // namespace fuse::map_ctl

@@ -17,4 +17,10 @@ std::string format_text(const fuse_msgs::MapControlReply& reply);
 std::string format_json(const std::string& command, fuse_msgs::RpcStatus status, const std::string& message,
                         const fuse_msgs::MapControlReply& reply);
 
+/// set-pose: "accepted" | "corrected" | "refused" | "pending".
+std::string result_name(fuse_msgs::SetPoseResult result);
+/// The set-pose verdict, one "name value" line per field.
+std::string format_text(const fuse_msgs::SetPoseReply& reply);
+std::string format_json(fuse_msgs::RpcStatus status, const std::string& message, const fuse_msgs::SetPoseReply& reply);
+
 }  // namespace fuse::map_ctl

@@ -65,6 +65,8 @@ std::vector<TopicType> make_catalog() {
       entry<fuse_msgs::HistoryReply>(reply_topic(services::kHistory)),
       entry<fuse_msgs::MapControlRequest>(request_topic(services::kMapControl)),
       entry<fuse_msgs::MapControlReply>(reply_topic(services::kMapControl)),
+      entry<fuse_msgs::SetPoseRequest>(request_topic(services::kSetPose)),
+      entry<fuse_msgs::SetPoseReply>(reply_topic(services::kSetPose)),
   };
 }
 

@@ -100,68 +100,44 @@ ScanReport Estimator::ingest(const LidarScan& scan) {
   if (monitor_.wants_relocalisation()) tracker_.widen(scan.t_end);
   report = updater_.process(scan, history);
   monitor_.on_scan(report);
-  if (localization_ && !localized()) localize_step(report);
+  if (localization_ && !localized()) {
+    localize_step(report);
+  } else {
+    search_when_lost(scan.t_end);
+  }
   return report;
 }
 
 void Estimator::localize_in(std::vector<Eigen::Vector3f> points, const std::optional<InitialPose>& initial_pose,
                             const std::optional<Eigen::Vector3d>& map_gravity) {
-  if (map_gravity) {
-    // The search turns about z: the map must be used in the gravity-aligned frame it was built in.
-    const double tilt = std::acos(std::clamp(-map_gravity->normalized().z(), -1.0, 1.0));
-    if (tilt > config_.global_localization.max_map_tilt) {
-      throw std::invalid_argument(fmt::format("the map's gravity is {:.2f} deg off its -z axis, more than "
-                                              "global_localization.max_map_tilt ({:.2f} deg)",
-                                              tilt * 180.0 / M_PI, config_.global_localization.max_map_tilt * 180.0 / M_PI));
-    }
-    logger("estimator")->info("the map's recorded gravity is {:.3f} deg off its -z axis", tilt * 180.0 / M_PI);
+  map_gravity_ = map_gravity;
+  localization_ = std::make_unique<SessionLocalization>(config_, std::move(points), initial_pose, map_gravity, config_.map.mode);
+  localization_->start(updater_);
+}
+
+void Estimator::search_when_lost(double t) {
+  const GlobalLocalizationConfig& c = config_.global_localization;
+  const double lost = lost_for(monitor_);
+  if (!c.enabled || c.lost_search_after_s <= 0.0 || lost < c.lost_search_after_s) return;
+  std::vector<Eigen::Vector3f> points = points_of(updater_.map());
+  if (points.empty()) return;
+  try {
+    localization_ = std::make_unique<SessionLocalization>(config_, std::move(points), std::nullopt, map_gravity_,
+                                                          config_.map.mode);
+  } catch (const std::invalid_argument& e) {
+    counters_.count("lost_search_impossible", std::string("lost, and the map cannot be searched: ") + e.what());
+    return;
   }
-  localization_ = std::make_unique<MapLocalization>(config_.global_localization, std::move(points), initial_pose,
-                                                    map_gravity ? *map_gravity : -Eigen::Vector3d::UnitZ());
-  T_map_session_.setIdentity();
-  // The session maps its own surroundings in its own frame until it knows where it is.
-  updater_.restart_map({}, "mapping");
+  localization_->start(updater_);
+  counters_.count("lost_search", fmt::format("lost for {:.1f} s at t={:.3f} (local re-localisation failing): searching "
+                                             "the whole map for the sensor's place",
+                                             lost, t));
 }
 
 void Estimator::localize_step(const ScanReport& report) {
-  MapLocalization& L = *localization_;
-  StateHistory& history = tracker_.history();
-  const double t = report.t;
-  if (L.state() == MapLocalization::State::kConfirming) {
-    // The location holds if the scans after it fit the saved map (tracking.min_fit), 4 of 5 at least.
-    ++confirm_scans_;
-    if (!report.updated || report.match_fit < config_.tracking.min_fit) ++confirm_poor_;
-    if (t < L.confirm_until()) return;
-    if (5 * confirm_poor_ <= confirm_scans_) {
-      L.confirmed(t);
-      updater_.set_map_mode(config_.map.mode);
-      counters_.count("global_localized", fmt::format("located in the saved map at t={:.3f}", t));
-      return;
-    }
-    const std::string why = fmt::format("{} of {} scans after it did not fit the map", confirm_poor_, confirm_scans_);
-    counters_.count("global_localization_dropped", "global localization dropped: " + why);
-    history.transform_world(T_map_session_.inverse());
-    T_map_session_.setIdentity();
-    updater_.restart_map(L.session_points(), "mapping");
-    L.dropped(t, why);
-    return;
-  }
-  const std::optional<Eigen::Isometry3d> T =
-      L.on_scan(t, updater_.last_world_points(), updater_.last_T_world_lidar().translation(), history.query(t).x.g);
-  if (!T) return;
-  // Into the map's frame: the history by T_M_S, the saved map for the session's (not extended
-  // while the location is being confirmed), and a prior as wide as the search's step (a cell in
-  // position, about a degree of heading) so that the next scan is re-localised against the map.
-  history.transform_world(*T);
-  T_map_session_ = *T;
-  updater_.restart_map(L.map_points(), "localization");
-  const double r = L.resolution();
-  StateVector q = StateVector::Zero();
-  q.segment<3>(Idx::kPos).setConstant(r * r);
-  q.segment<3>(Idx::kRot).setConstant(0.03 * 0.03);
-  history.inflate(t, q);
-  L.taken(t);
-  confirm_scans_ = confirm_poor_ = 0;
+  const LocalizationEvent e = localization_->step(report, tracker_.history(), updater_);
+  if (e.kind == LocalizationEvent::Kind::kConfirmed) counters_.count("global_localized", e.message);
+  if (e.kind == LocalizationEvent::Kind::kDropped) counters_.count("global_localization_dropped", "global localization dropped: " + e.message);
 }
 
 }  // namespace fuse

@@ -23,7 +23,7 @@ void GlobalLocalizationConfig::load(ConfigNode& node) {
   node.check(std::isfinite(max_map_tilt) && max_map_tilt > 0.0 && max_map_tilt <= 0.5, "max_map_tilt", "must be in (0, 0.5] rad");
   node.check(agreeing_searches >= 1 && agreeing_searches <= 10, "agreeing_searches", "must be in [1, 10]");
   node.get("distinct_angle", distinct_angle).get("map_margin", map_margin).get("max_cells", max_cells);
-  node.get("confirm_s", confirm_s).get("blocking", blocking);
+  node.get("confirm_s", confirm_s).get("blocking", blocking).get("lost_search_after_s", lost_search_after_s);
   node.check(std::isfinite(resolution) && resolution >= 0.05 && resolution <= 5.0, "resolution", "must be in [0.05, 5] m");
   node.check(levels >= 0 && levels <= 10, "levels", "must be in [0, 10]");
   node.check(std::isfinite(submap_radius) && submap_radius > resolution && submap_radius <= 500.0, "submap_radius",
@@ -49,6 +49,8 @@ void GlobalLocalizationConfig::load(ConfigNode& node) {
   node.check(std::isfinite(map_margin) && map_margin >= 0.0 && map_margin <= 100.0, "map_margin", "must be in [0, 100] m");
   node.check(std::isfinite(max_cells) && max_cells >= 1e3 && max_cells <= 1e9, "max_cells", "must be in [1e3, 1e9]");
   node.check(std::isfinite(confirm_s) && confirm_s >= 0.0 && confirm_s <= 60.0, "confirm_s", "must be in [0, 60] s");
+  node.check(std::isfinite(lost_search_after_s) && lost_search_after_s >= 0.0 && lost_search_after_s <= 3600.0,
+             "lost_search_after_s", "must be in [0, 3600] s");
   node.finish();
 }
 

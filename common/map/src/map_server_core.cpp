@@ -181,6 +181,14 @@ MapApplyResult MapServerCore::apply(std::uint64_t session, std::uint64_t sequenc
   return result;
 }
 
+bool MapServerCore::note_gravity(const Eigen::Vector3d& g, double max_tilt) {
+  if (!g.allFinite() || g.norm() < 0.5) return false;
+  const Eigen::Vector3d d = g.normalized();
+  if (std::acos(std::clamp(-d.z(), -1.0, 1.0)) > max_tilt) return false;
+  if (!meta_.gravity && meta_.mode == "mapping") meta_.gravity = d;
+  return true;
+}
+
 void MapServerCore::journal_failed(const MapObservation& o) {
   counters_.count("journal_errors", "observation " + id(o.session, o.sequence) + " not journaled: " +
                                         storage_->write_error() + "; kept in memory, not acknowledged, writing again every " +

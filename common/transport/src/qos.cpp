@@ -55,8 +55,10 @@ std::map<std::string, TopicQos> make_table() {
     t[request_topic(service)] = qos(kBestEffort, kVolatile, 32);
     t[reply_topic(service)] = qos(kBestEffort, kVolatile, 32);
   }
-  t[request_topic(services::kMapControl)] = qos(kReliable, kVolatile, 32);
-  t[reply_topic(services::kMapControl)] = qos(kReliable, kVolatile, 32);
+  for (const char* service : {services::kMapControl, services::kSetPose}) {
+    t[request_topic(service)] = qos(kReliable, kVolatile, 32);
+    t[reply_topic(service)] = qos(kReliable, kVolatile, 32);
+  }
   return t;
 }
 

@@ -94,6 +94,7 @@ Grant role_grant(const std::string& role) {
     g.publish = {kCorrection, kObservation, kHealth};
     g.subscribe = {kLidarScan, kCorrected, kMapChunk, kMapStatus, kHealth};
     add_client(g, services::kHistory);
+    add_server(g, services::kSetPose);
   } else if (role == "map") {
     g.publish = {kMapChunk, kMapStatus, kHealth};
     g.subscribe = {kObservation, kHealth};
@@ -104,9 +105,10 @@ Grant role_grant(const std::string& role) {
   } else if (role == "operator") {
     g.subscribe = {kMapStatus, kHealth};
     add_client(g, services::kMapControl);
+    add_client(g, services::kSetPose);
   } else if (role == "recorder") {
     g.subscribe = {kImu, kLidarScan, kOdometry, kCorrected, kCorrection, kObservation, kMapChunk, kMapStatus, kHealth};
-    for (const char* s : {services::kQuery, services::kHistory, services::kMapControl}) {
+    for (const char* s : {services::kQuery, services::kHistory, services::kMapControl, services::kSetPose}) {
       g.subscribe.push_back(request_topic(s));
       g.subscribe.push_back(reply_topic(s));
     }

@@ -122,6 +122,7 @@ fuse_msgs::Correction to_msg(const Posterior& post) {
   fuse_msgs::Correction m;
   m.t(post.t);
   m.scan_sequence(post.scan_sequence);
+  m.frame_change(to_pose(Eigen::Vector3d::Zero(), Eigen::Matrix3d::Identity()));
   m.pose(to_pose(post.x.p, post.x.R));
   m.velocity(v3(post.x.v));
   m.extrinsic(to_pose(post.x.p_IL, post.x.R_IL));
@@ -165,6 +166,35 @@ Posterior from_msg(const fuse_msgs::Correction& m) {
   require(post.P.allFinite(), "correction_invalid", "covariance is not finite");
   require((post.P.diagonal().array() >= 0.0).all(), "correction_invalid", "covariance has a negative variance");
   return post;
+}
+
+const char* to_string(fuse_msgs::MapFrame state) {
+  switch (state) {
+    case fuse_msgs::MAP_FRAME_UNDECIDED: return "undecided";
+    case fuse_msgs::MAP_FRAME_OWN: return "own";
+    case fuse_msgs::MAP_FRAME_SEARCHING: return "searching";
+    case fuse_msgs::MAP_FRAME_CONFIRMING: return "confirming";
+    case fuse_msgs::MAP_FRAME_LOCALIZED: return "localized";
+  }
+  return "unknown";
+}
+
+bool valid(fuse_msgs::MapFrame state) {
+  const auto v = static_cast<long long>(state);
+  return v >= static_cast<long long>(fuse_msgs::MAP_FRAME_UNDECIDED) && v <= static_cast<long long>(fuse_msgs::MAP_FRAME_LOCALIZED);
+}
+
+WorldFrame frame_of(const fuse_msgs::Correction& m) {
+  require(valid(m.map_frame()), "correction_invalid",
+          "unknown map frame state " + std::to_string(static_cast<long long>(m.map_frame())));
+  return WorldFrame{m.map_frame(), m.frame_epoch()};
+}
+
+Eigen::Isometry3d frame_change_of(const fuse_msgs::Correction& m) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = finite_v3(m.frame_change().position(), "correction_invalid", "frame change position");
+  T.linear() = rotation_of(m.frame_change(), "correction_invalid");
+  return T;
 }
 
 fuse_msgs::HistoryEntry to_msg(const StateHistory::Entry& e) {

@@ -16,7 +16,7 @@ namespace fuse::service {
 
 namespace {
 constexpr char kMagic[8] = {'F', 'U', 'S', 'E', 'S', 'C', 'K', 'P'};
-constexpr std::uint32_t kVersion = 1;
+constexpr std::uint32_t kVersion = 2;  // 2: the Correction carries its world frame
 constexpr std::size_t kHeaderSize = sizeof(kMagic) + 3 * sizeof(std::uint32_t);
 
 void put_u32(std::string& out, std::uint32_t v) {
@@ -67,6 +67,7 @@ std::optional<Checkpoint> read_checkpoint(const std::filesystem::path& file, std
   Checkpoint c;
   try {
     c.posterior = from_msg(msg);
+    c.frame = frame_of(msg);
   } catch (const InvalidSample& e) {
     why = file.string() + ": " + e.what();
     return std::nullopt;
@@ -86,7 +87,10 @@ std::optional<Checkpoint> read_checkpoint(const std::filesystem::path& file, std
 }
 
 void write_checkpoint(const std::filesystem::path& file, const Checkpoint& checkpoint) {
-  transport::Bytes payload = transport::serialize(to_msg(checkpoint.posterior));
+  fuse_msgs::Correction msg = to_msg(checkpoint.posterior);
+  msg.map_frame(checkpoint.frame.state);
+  msg.frame_epoch(checkpoint.frame.epoch);
+  transport::Bytes payload = transport::serialize(msg);
   for (int i = 0; i < 36; ++i) {
     std::uint64_t bits = 0;
     const double v = checkpoint.map_drift(i / 6, i % 6);

@@ -19,7 +19,7 @@
 
 #include "fuse/estimation/estimator_config.hpp"
 #include "fuse/estimation/lidar_updater.hpp"
-#include "fuse/estimation/map_localization.hpp"
+#include "fuse/estimation/session_localization.hpp"
 #include "fuse/estimation/state_tracker.hpp"
 #include "fuse/estimation/tracking_monitor.hpp"
 
@@ -61,11 +61,13 @@ class Estimator {
   void localize_in(std::vector<Eigen::Vector3f> points, const std::optional<InitialPose>& initial_pose = std::nullopt,
                    const std::optional<Eigen::Vector3d>& map_gravity = std::nullopt);
   /// The search for the start in a saved map (nullptr without localize_in).
-  const MapLocalization* map_localization() const { return localization_.get(); }
+  const MapLocalization* map_localization() const { return localization_ ? &localization_->search() : nullptr; }
   /// T_M_S: where the session frame lies in the saved map's (identity until a location is taken).
-  const Eigen::Isometry3d& T_map_session() const { return T_map_session_; }
+  Eigen::Isometry3d T_map_session() const {
+    return localization_ ? localization_->T_map_session() : Eigen::Isometry3d::Identity();
+  }
   /// In the saved map's frame and confirmed there (always, without localize_in).
-  bool localized() const { return !localization_ || localization_->state() == MapLocalization::State::kLocalized; }
+  bool localized() const { return !localization_ || localization_->localized(); }
   const SpatialIndex& map() const { return updater_.map(); }
   /// Counts of refused and flagged input, from both sides.
   std::map<std::string, std::uint64_t> counters() const;
@@ -85,6 +87,8 @@ class Estimator {
   /// After a scan's LiDAR step while localize_in's search runs: feeds it, takes a location it
   /// found (moving the history and the map), and confirms or drops a location taken.
   void localize_step(const ScanReport& report);
+  /// Lost and found: a track lost for global_localization.lost_search_after_s searches its map.
+  void search_when_lost(double t);
 
   EstimatorConfig config_;
   StateTracker tracker_;
@@ -92,9 +96,8 @@ class Estimator {
   TrackingMonitor monitor_;
   TimeGate scan_gate_;
   Counters counters_;  ///< scan checks
-  std::unique_ptr<MapLocalization> localization_;
-  Eigen::Isometry3d T_map_session_ = Eigen::Isometry3d::Identity();
-  std::size_t confirm_scans_ = 0, confirm_poor_ = 0;  ///< scans since a location was taken, and those not fitting
+  std::unique_ptr<SessionLocalization> localization_;
+  std::optional<Eigen::Vector3d> map_gravity_;  ///< the loaded map's, when it recorded it
 };
 
 /// Checks a scan before the LiDAR step: its times, the state's initialisation, and its end against

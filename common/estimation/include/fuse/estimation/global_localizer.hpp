@@ -88,6 +88,10 @@ struct GlobalLocalizationConfig {
   /// s of data after a location is taken in which the scans must fit the map (tracking.min_fit) for
   /// it to be confirmed; a location that does not fit is dropped and the search goes on.
   double confirm_s = 1.0;
+  /// s: a track lost this long in one episode (tracking status lost, local re-localisation failing:
+  /// the sensor was carried, a gap too long to coast) searches the whole map again ("lost and
+  /// found"); 0: never.
+  double lost_search_after_s = 3.0;
   /// Wait for each search where it is asked for (fuse-run always sets it: an offline replay). false: it
   /// runs in a thread of its own and scan processing never waits for it.
   bool blocking = false;

@@ -177,6 +177,12 @@ class MapServerCore {
   /// What is durable per session (acknowledged, and above holes).
   const SessionAcks& session_acks() const { return meta_.acks; }
 
+  /// The map frame's gravity direction, as its snapshot recorded it or the first session that
+  /// mapped it said (MapObservation.gravity); written with every snapshot.
+  const std::optional<Eigen::Vector3d>& gravity() const { return meta_.gravity; }
+  /// A mapping session's gravity direction in the map frame: kept when the map has none yet
+  /// (a direction within max_tilt rad of −z; anything else is refused and false returned).
+  bool note_gravity(const Eigen::Vector3d& g, double max_tilt);
   /// "mapping" or "localization" (std::invalid_argument otherwise).
   void set_mode(const std::string& mode);
   const std::string& mode() const { return meta_.mode; }

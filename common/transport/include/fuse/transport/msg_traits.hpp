@@ -23,6 +23,8 @@ FUSE_TRANSPORT_MSG(HistoryRequest)
 FUSE_TRANSPORT_MSG(HistoryReply)
 FUSE_TRANSPORT_MSG(MapControlRequest)
 FUSE_TRANSPORT_MSG(MapControlReply)
+FUSE_TRANSPORT_MSG(SetPoseRequest)
+FUSE_TRANSPORT_MSG(SetPoseReply)
 #undef FUSE_TRANSPORT_MSG
 
 }  // namespace fuse::transport

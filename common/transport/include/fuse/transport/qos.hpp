@@ -24,6 +24,8 @@ namespace services {
 inline constexpr const char* kQuery = "query";
 inline constexpr const char* kHistory = "history";
 inline constexpr const char* kMapControl = "map/control";
+/// An initial pose in the saved map (served by fuse-update, which holds the map and the search).
+inline constexpr const char* kSetPose = "update/set_pose";
 }  // namespace services
 
 /// QoS of a topic (or of an RPC's "rpc/<service>/request" and "rpc/<service>/reply" topics).

@@ -65,7 +65,7 @@ struct Grant {
 };
 
 /// The roles, in a stable order: ingest, state, update, map (the services), planner (query
-/// and odometry), operator (map control), recorder (reads everything), monitor (fuse-launch:
+/// and odometry), operator (map control, set-pose), recorder (reads everything), monitor (fuse-launch:
 /// health and progress), viz (reads state, map and scans; no control, no RPC).
 const std::vector<std::string>& roles();
 

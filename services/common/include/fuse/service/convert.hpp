@@ -43,6 +43,23 @@ struct Posterior {
   NavState x;
   StateCovariance P = StateCovariance::Zero();
 };
+/// The world frame a posterior is in against a saved map (fuse_msgs::MapFrame), and how many
+/// times fuse-state's history changed frame before it (docs/architecture.md, "Starting anywhere
+/// in a saved map").
+struct WorldFrame {
+  fuse_msgs::MapFrame state = fuse_msgs::MAP_FRAME_UNDECIDED;
+  std::uint32_t epoch = 0;
+  /// Searching or confirming: the world frame is not (yet) the saved map's.
+  bool relocalizing() const {
+    return state == fuse_msgs::MAP_FRAME_SEARCHING || state == fuse_msgs::MAP_FRAME_CONFIRMING;
+  }
+};
+const char* to_string(fuse_msgs::MapFrame state);
+bool valid(fuse_msgs::MapFrame state);  ///< one of the states the IDL names
+/// The frame a correction says it is in (throws InvalidSample for an unknown state).
+WorldFrame frame_of(const fuse_msgs::Correction& msg);
+/// Its frame_change, T_new_old (throws InvalidSample when not a rigid transform).
+Eigen::Isometry3d frame_change_of(const fuse_msgs::Correction& msg);
 fuse_msgs::Correction to_msg(const Posterior& posterior);
 Posterior from_msg(const fuse_msgs::Correction& msg);  ///< throws InvalidSample
 

@@ -4,7 +4,7 @@
 // checkpointed posterior".
 //
 // File: "FUSESCKP" | u32 format version | u32 length | u32 CRC-32 of the payload | payload, the
-// payload being the posterior as the wire's Correction (XCDR1, little-endian: one encoding for
+// payload being the posterior as the wire's Correction with its world frame (XCDR1, little-endian: one encoding for
 // what travels and what is kept) followed by the 36 little-endian doubles of the map frame's
 // accumulated uncertainty (row-major 6x6, see ScanReport::map_drift). Written to FILE.tmp and renamed over FILE (a reader sees the old
 // or the new checkpoint, never a torn one); not fsync'd: it guards against the process dying, and
@@ -29,6 +29,7 @@ using PoseCovariance = Eigen::Matrix<double, 6, 6>;
 struct Checkpoint {
   Posterior posterior;
   PoseCovariance map_drift = PoseCovariance::Zero();  ///< accumulated up to the posterior
+  WorldFrame frame;                                   ///< the frame the posterior is in
 };
 
 /// Reads a checkpoint; nullopt with `why` set when there is none or it cannot be trusted.
