@@ -133,9 +133,14 @@ void FrameLocalizer::judge_pose(const LocalizationEvent& e, bool refused_before,
   if (refused_now || e.kind == LocalizationEvent::Kind::kDropped) {
     v.result = fuse_msgs::SET_POSE_REFUSED;
     const auto& last = localization_->search().last_result();
-    v.detail = refused_now ? fmt::format("nothing within 3 sigma of the pose fits the map (best fit {:.2f}, needs {:.2f})",
-                                         last ? last->best.fit : 0.0, config_.global_localization.min_fit)
-                           : "the location near the pose did not hold: " + e.message;
+    if (refused_now) {
+      v.detail = fmt::format("nothing within 3 sigma of the pose fits the map: best fit {:.2f} (needs {:.2f}, within the "
+                             "window's inner {:.0f}%)",
+                             last ? last->best.fit : 0.0, config_.global_localization.min_fit,
+                             100.0 * config_.global_localization.window_inner);
+    } else {
+      v.detail = "the location near the pose did not hold: " + e.message;
+    }
     const fuse_msgs::MapFrame resume = check_->resume;
     check_.reset();
     if (resume != fuse_msgs::MAP_FRAME_SEARCHING) {

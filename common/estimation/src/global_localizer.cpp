@@ -18,6 +18,7 @@ void GlobalLocalizationConfig::load(ConfigNode& node) {
   node.get("enabled", enabled).get("resolution", resolution).get("levels", levels).get("submap_radius", submap_radius);
   node.get("max_points", max_points).get("min_travel", min_travel).get("min_time", min_time).get("period", period).get("min_score", min_score);
   node.get("candidate_margin", candidate_margin).get("max_candidates", max_candidates).get("fit_residual", fit_residual);
+  node.get("window_prior_d2", window_prior_d2);
   node.get("min_fit", min_fit).get("window_inner", window_inner).get("ambiguity_ratio", ambiguity_ratio).get("ambiguity_margin", ambiguity_margin).get("distinct_distance", distinct_distance);
   node.get("agreeing_searches", agreeing_searches).get("max_map_tilt", max_map_tilt);
   node.check(std::isfinite(max_map_tilt) && max_map_tilt > 0.0 && max_map_tilt <= 0.5, "max_map_tilt", "must be in (0, 0.5] rad");
@@ -39,6 +40,7 @@ void GlobalLocalizationConfig::load(ConfigNode& node) {
   node.check(std::isfinite(fit_residual) && fit_residual > 0.0 && fit_residual <= 2.0, "fit_residual", "must be in (0, 2] m");
   node.check(std::isfinite(min_fit) && min_fit > 0.0 && min_fit <= 1.0, "min_fit", "must be in (0, 1]");
   node.check(std::isfinite(window_inner) && window_inner > 0.0 && window_inner <= 1.0, "window_inner", "must be in (0, 1]");
+  node.check(std::isfinite(window_prior_d2) && window_prior_d2 >= 0.0, "window_prior_d2", "must be >= 0");
   node.check(std::isfinite(ambiguity_ratio) && ambiguity_ratio >= 1.0 && ambiguity_ratio <= 100.0, "ambiguity_ratio",
              "must be in [1, 100]");
   node.check(std::isfinite(ambiguity_margin) && ambiguity_margin >= 0.0 && ambiguity_margin < 1.0, "ambiguity_margin",
@@ -414,7 +416,15 @@ GlobalSearchResult GlobalLocalizer::search(const std::vector<Eigen::Vector3f>& s
   for (GlobalPose& c : candidates) c = refine(points, c);
   std::sort(candidates.begin(), candidates.end(), [](const GlobalPose& a, const GlobalPose& b) { return a.fit > b.fit; });
   result.best = candidates.front();
+  // The given pose's prior (Mahalanobis distance², horizontal position and heading).
+  auto prior_d2 = [&](const GlobalPose& c) {
+    if (!window || window->sigma_xy <= 0.0 || window->sigma_yaw <= 0.0) return 0.0;
+    const double dp = (c.position.head<2>() - window->center.head<2>()).norm() / window->sigma_xy;
+    const double dy = wrap(c.yaw - window->yaw) / window->sigma_yaw;
+    return dp * dp + dy * dy;
+  };
   auto rivals_best = [&](const GlobalPose& c) {
+    if (prior_d2(c) - prior_d2(result.best) > config_.window_prior_d2) return false;  // the prior rules it out
     return (1.0 - c.fit) < config_.ambiguity_ratio * (1.0 - result.best.fit) ||
            c.fit > result.best.fit - config_.ambiguity_margin;
   };

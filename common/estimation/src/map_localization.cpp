@@ -73,6 +73,8 @@ std::optional<SearchWindow> MapLocalization::window_for(const Eigen::Vector3d& s
   w.radius_z = 3.0 * h.std_z + resolution();
   w.yaw = h.yaw;
   w.yaw_range = std::min(M_PI, 3.0 * h.std_yaw);
+  w.sigma_xy = h.std_xy;
+  w.sigma_yaw = h.std_yaw;
   return w;
 }
 

@@ -72,6 +72,12 @@ struct GlobalLocalizationConfig {
   /// tells places apart is in the few points that do not fit.
   double ambiguity_ratio = 3.0;
   double ambiguity_margin = 0.02;
+  /// Around a given pose (a window with its σ), a candidate that fits worse than the best is no
+  /// rival when the pose's prior makes it this much less likely: its squared Mahalanobis distance
+  /// to the pose given exceeds the best's by more than this (6: a prior ratio below e^-3, 5 %).
+  /// It never promotes a worse-fitting candidate, only lets the prior break a near tie (a corridor's
+  /// door frames 3.5 m apart, the given pose 0.4 m from one of them).
+  double window_prior_d2 = 6.0;
   double distinct_distance = 3.0;  ///< m: poses farther apart than this are distinct places ...
   double distinct_angle = 0.35;    ///< rad: ... as are poses turned more than this (20°)
   /// Searches of the whole map (no initial pose) that must agree, one after another, on where the
@@ -114,6 +120,9 @@ struct SearchWindow {
   double radius_z = 0.5;                             ///< m
   double yaw = 0.0;                                  ///< rad
   double yaw_range = 0.2;                            ///< rad either side
+  /// The given pose's σ (0: unknown, no prior weighs the candidates).
+  double sigma_xy = 0.0;                             ///< m
+  double sigma_yaw = 0.0;                            ///< rad
 };
 
 struct GlobalSearchResult {
