@@ -219,7 +219,7 @@ void FrameLocalizer::begin_search(StateHistory& history, LidarUpdater& updater, 
     logger(kLog)->info("the location being confirmed is set aside: a new search starts from here");
   }
   localization_ = std::move(next);
-  localization_->start(updater);
+  localization_->start(updater, history, t);
   check_ = check;
   set_state(fuse_msgs::MAP_FRAME_SEARCHING);
   logger(kLog)->info("world frame: searching the saved map{}", check_ ? " around the pose given" : "");
@@ -244,7 +244,7 @@ void FrameLocalizer::map_replaced(LidarUpdater& updater, const MapContext& map, 
   }
   try {
     localization_ = std::make_unique<SessionLocalization>(config_, std::move(points), std::nullopt, map_.gravity, map_.mode);
-    localization_->start(updater);
+    updater.restart_map({}, "mapping");  // the session maps its own surroundings again
     set_state(fuse_msgs::MAP_FRAME_SEARCHING);
     logger(kLog)->info("the map server replaced its map: the search starts again on the new one");
   } catch (const std::exception& e) {

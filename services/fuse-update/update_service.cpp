@@ -386,7 +386,7 @@ UpdateService::Outcome UpdateService::process(LidarScan& scan) {
   bring_up_to_date(history, slice_last_correction_t_);
   last_scan_t_ = scan.t_end;
   // A lost track keeps trying: the scan is re-localised from a widened prior (as in fuse-run).
-  if (monitor_.wants_relocalisation()) widen_prior(history, scan.t_end, config_.estimator);
+  if (monitor_.wants_relocalisation() && !frame_.frame().relocalizing()) widen_prior(history, scan.t_end, config_.estimator);
   ScanReport report;
   try {
     report = updater_.process(scan, history);

@@ -96,8 +96,9 @@ ScanReport Estimator::ingest(const LidarScan& scan) {
     monitor_.on_refused_scan();
     return report;
   }
-  // A lost track keeps trying: the next scan is re-localised from a widened prior.
-  if (monitor_.wants_relocalisation()) tracker_.widen(scan.t_end);
+  // A lost track keeps trying: the next scan is re-localised from a widened prior (not while a
+  // search of the map runs: the session then tracks its own frame).
+  if (monitor_.wants_relocalisation() && localized()) tracker_.widen(scan.t_end);
   report = updater_.process(scan, history);
   monitor_.on_scan(report);
   if (localization_ && !localized()) {
@@ -112,7 +113,8 @@ void Estimator::localize_in(std::vector<Eigen::Vector3f> points, const std::opti
                             const std::optional<Eigen::Vector3d>& map_gravity) {
   map_gravity_ = map_gravity;
   localization_ = std::make_unique<SessionLocalization>(config_, std::move(points), initial_pose, map_gravity, config_.map.mode);
-  localization_->start(updater_);
+  StateHistory& history = tracker_.history();
+  localization_->start(updater_, history, history.initialised() ? history.newest_time() : 0.0);
 }
 
 void Estimator::search_when_lost(double t) {
@@ -128,7 +130,7 @@ void Estimator::search_when_lost(double t) {
     counters_.count("lost_search_impossible", std::string("lost, and the map cannot be searched: ") + e.what());
     return;
   }
-  localization_->start(updater_);
+  localization_->start(updater_, tracker_.history(), t);
   counters_.count("lost_search", fmt::format("lost for {:.1f} s at t={:.3f} (local re-localisation failing): searching "
                                              "the whole map for the sensor's place",
                                              lost, t));

@@ -24,6 +24,7 @@ void GlobalLocalizationConfig::load(ConfigNode& node) {
   node.check(std::isfinite(max_map_tilt) && max_map_tilt > 0.0 && max_map_tilt <= 0.5, "max_map_tilt", "must be in (0, 0.5] rad");
   node.check(agreeing_searches >= 1 && agreeing_searches <= 10, "agreeing_searches", "must be in [1, 10]");
   node.get("distinct_angle", distinct_angle).get("map_margin", map_margin).get("max_cells", max_cells);
+  node.get("max_nodes", max_nodes);
   node.get("confirm_s", confirm_s).get("blocking", blocking).get("lost_search_after_s", lost_search_after_s);
   node.check(std::isfinite(resolution) && resolution >= 0.05 && resolution <= 5.0, "resolution", "must be in [0.05, 5] m");
   node.check(levels >= 0 && levels <= 10, "levels", "must be in [0, 10]");
@@ -50,6 +51,7 @@ void GlobalLocalizationConfig::load(ConfigNode& node) {
              "must be in (0, pi] rad");
   node.check(std::isfinite(map_margin) && map_margin >= 0.0 && map_margin <= 100.0, "map_margin", "must be in [0, 100] m");
   node.check(std::isfinite(max_cells) && max_cells >= 1e3 && max_cells <= 1e9, "max_cells", "must be in [1e3, 1e9]");
+  node.check(std::isfinite(max_nodes) && max_nodes >= 1e3 && max_nodes <= 1e10, "max_nodes", "must be in [1e3, 1e10]");
   node.check(std::isfinite(confirm_s) && confirm_s >= 0.0 && confirm_s <= 60.0, "confirm_s", "must be in [0, 60] s");
   node.check(std::isfinite(lost_search_after_s) && lost_search_after_s >= 0.0 && lost_search_after_s <= 3600.0,
              "lost_search_after_s", "must be in [0, 3600] s");
@@ -76,7 +78,8 @@ std::string GlobalSearchResult::describe() const {
     s += fmt::format("; rival ({:.2f}, {:.2f}, {:.2f}) m, heading {:+.1f} deg, fit {:.3f} (grid {:.3f})", rival->position.x(),
                      rival->position.y(), rival->position.z(), rival->yaw * 180.0 / M_PI, rival->fit, rival->score);
   }
-  return s + fmt::format("; {} candidate(s), {} points, {} nodes, {:.0f} ms", candidates, points, nodes, ms);
+  return s + fmt::format("; {} candidate(s), {} points, {} nodes{}, {:.0f} ms", candidates, points, nodes,
+                         exhausted ? " (max_nodes reached: not searched to the end)" : "", ms);
 }
 
 GlobalLocalizer::GlobalLocalizer(const GlobalLocalizationConfig& config, const std::vector<Eigen::Vector3f>& map_points)
@@ -198,6 +201,8 @@ struct GlobalLocalizer::Search {
   std::vector<std::vector<Eigen::Vector3i>> offsets;  ///< per yaw: ⌊Rz(ψ) q_n / r⌋
   Eigen::Vector3i lo, hi;                            ///< translation cells searched, inclusive
   std::size_t nodes = 0;
+  std::size_t budget = 0;  ///< max_nodes: past it nothing more is expanded
+  bool exhausted() const { return nodes >= budget; }
 
   struct Node {
     int bound;
@@ -234,7 +239,7 @@ struct GlobalLocalizer::Search {
   /// discards whole nodes.
   template <class Need, class Visit, class Skip>
   void descend(const Node& n, Need&& need, Visit&& visit, Skip&& skip) {
-    if (n.bound < need() || skip(n)) return;
+    if (exhausted() || n.bound < need() || skip(n)) return;
     if (n.level == 0) {
       visit(n);
       return;
@@ -329,7 +334,8 @@ GlobalSearchResult GlobalLocalizer::search(const std::vector<Eigen::Vector3f>& s
   const double r = config_.resolution;
   const double n = static_cast<double>(points.size());
 
-  Search s{*this, {}, {}, Eigen::Vector3i::Zero(), size_ - Eigen::Vector3i::Ones(), 0};
+  Search s{*this, {}, {}, Eigen::Vector3i::Zero(), size_ - Eigen::Vector3i::Ones(), 0,
+           static_cast<std::size_t>(config_.max_nodes)};
   // Heading step: the farthest point (horizontally) moves by at most two cells between steps, at
   // most one from the nearest step.
   double reach = r;
@@ -372,6 +378,7 @@ GlobalSearchResult GlobalLocalizer::search(const std::vector<Eigen::Vector3f>& s
     for (const Search::Node& root : roots) s.descend(root, need_top, [&](const Search::Node& l) { top = l; }, none);
     if (top) result.best = s.pose(*top, n);
     result.nodes = s.nodes;
+    result.exhausted = s.exhausted();
     result.ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     return result;
   }
@@ -448,6 +455,10 @@ GlobalSearchResult GlobalLocalizer::search(const std::vector<Eigen::Vector3f>& s
     result.verdict = result.candidates > 1 ? GlobalSearchResult::Verdict::kAmbiguous : GlobalSearchResult::Verdict::kLocalized;
   }
   result.nodes = s.nodes;
+  if (s.exhausted()) {  // not searched to the end: a better place may lie in what was left
+    result.exhausted = true;
+    result.verdict = GlobalSearchResult::Verdict::kNotFound;
+  }
   result.ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
   return result;
 }

@@ -34,6 +34,24 @@ SessionLocalization::SessionLocalization(const EstimatorConfig& config, std::vec
       search_(make_search(config.global_localization, std::move(map_points), initial_pose, map_gravity)),
       map_mode_(std::move(map_mode)) {}
 
+void SessionLocalization::start(LidarUpdater& updater, StateHistory& history, double t) {
+  updater.restart_map({}, "mapping");
+  if (!history.initialised() || !history.ensure_entry(t)) return;
+  const StateQuery q = history.query(t);
+  if (!q.ok()) return;
+  // The pose in its own frame: position and rotation σ of an initialised state (1 cm, 0.01 rad),
+  // uncorrelated with the rest; the velocity, biases and gravity keep what they had.
+  constexpr double kAnchorPositionVar = 1e-4, kAnchorRotationVar = 1e-4;
+  StateCovariance P = q.P;
+  for (const int block : {Idx::kPos, Idx::kRot}) {
+    P.middleRows<3>(block).setZero();
+    P.middleCols<3>(block).setZero();
+    P.block<3, 3>(block, block) =
+        Eigen::Matrix3d::Identity() * (block == Idx::kPos ? kAnchorPositionVar : kAnchorRotationVar);
+  }
+  history.correct(t, q.x, P);
+}
+
 LocalizationEvent SessionLocalization::step(const ScanReport& report, StateHistory& history, LidarUpdater& updater) {
   LocalizationEvent e;
   const double t = report.t;
@@ -88,7 +106,7 @@ LocalizationEvent SessionLocalization::step(const ScanReport& report, StateHisto
 }
 
 double lost_for(const TrackingMonitor& monitor) {
-  if (!monitor.wants_relocalisation() || monitor.episodes().empty()) return 0.0;
+  if (monitor.status() != TrackingStatus::kLost || monitor.episodes().empty()) return 0.0;
   const TrackingMonitor::Episode& e = monitor.episodes().back();
   return e.status == TrackingStatus::kLost ? e.duration : 0.0;
 }

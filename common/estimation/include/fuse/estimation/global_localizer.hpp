@@ -91,12 +91,16 @@ struct GlobalLocalizationConfig {
   /// Grid cells at most (bounding box / resolution³; six grids of a byte per cell): a larger map
   /// is searched at twice the resolution, and again, up to 4 m cells; beyond that it is refused.
   double max_cells = 2e7;
+  /// Branch-and-bound nodes one search may score (a whole-map search of the corridor map scores
+  /// ~1.5e5; a submap that fits nowhere, as after a bad jump, can need a thousand times that).
+  /// Beyond it the search stops and answers "not found" (budget exhausted): never a location.
+  double max_nodes = 3e6;
   /// s of data after a location is taken in which the scans must fit the map (tracking.min_fit) for
   /// it to be confirmed; a location that does not fit is dropped and the search goes on.
   double confirm_s = 1.0;
-  /// s: a track lost this long in one episode (tracking status lost, local re-localisation failing:
-  /// the sensor was carried, a gap too long to coast) searches the whole map again ("lost and
-  /// found"); 0: never.
+  /// s: a track lost this long in one episode (tracking status lost: the sensor was carried, a gap
+  /// too long to coast, a wrong place taken) searches the whole map again ("lost and found");
+  /// 0: never.
   double lost_search_after_s = 3.0;
   /// Wait for each search where it is asked for (fuse-run always sets it: an offline replay). false: it
   /// runs in a thread of its own and scan processing never waits for it.
@@ -134,6 +138,7 @@ struct GlobalSearchResult {
   double best_grid_score = 0.0;     ///< the highest S over the lattice (the branch and bound's optimum)
   std::size_t points = 0;           ///< submap points scored
   std::size_t nodes = 0;            ///< branch-and-bound nodes scored
+  bool exhausted = false;           ///< stopped at max_nodes (the verdict is then "not found")
   double ms = 0.0;                  ///< wall time of the search
   std::string describe() const;
 };

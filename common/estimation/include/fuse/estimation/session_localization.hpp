@@ -43,8 +43,10 @@ class SessionLocalization {
                       const std::optional<InitialPose>& initial_pose, const std::optional<Eigen::Vector3d>& map_gravity,
                       std::string map_mode);
 
-  /// The session maps its own surroundings in its current frame until it knows where it is.
-  void start(LidarUpdater& updater) { updater.restart_map({}, "mapping"); }
+  /// The session maps its own surroundings in its current frame until it knows where it is. The
+  /// frame is anchored at the pose at t: its position and heading are known there (a lost track's
+  /// widened prior would otherwise keep growing, the next scans having no map to fit).
+  void start(LidarUpdater& updater, StateHistory& history, double t);
   /// After a scan's LiDAR step on `history` (the updater's): feeds the search, takes, confirms or
   /// drops a location.
   LocalizationEvent step(const ScanReport& report, StateHistory& history, LidarUpdater& updater);
@@ -64,9 +66,10 @@ class SessionLocalization {
   std::size_t confirm_scans_ = 0, confirm_poor_ = 0;  ///< scans since a location was taken, and those not fitting
 };
 
-/// s the track has been lost in its current episode while local re-localisation keeps failing
-/// (TrackingMonitor::wants_relocalisation); 0 otherwise. Lost and found: past
-/// global_localization.lost_search_after_s the owner searches the whole map again.
+/// s the track has been lost in its current episode (re-localisation failing, or a confident prior
+/// fitting poorly: a wrong place taken after a jump); 0 otherwise. Lost and found: past
+/// global_localization.lost_search_after_s the owner searches the whole map again, a search that
+/// is verified before anything is taken (unlike a local re-localisation from a widened prior).
 double lost_for(const TrackingMonitor& monitor);
 
 /// The points of a spatial index (the map to search when the track is lost).
