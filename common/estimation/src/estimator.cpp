@@ -24,7 +24,12 @@ std::map<std::string, std::uint64_t> Estimator::counters() const {
 }
 
 void Estimator::forward_events() {
-  for (const StateTracker::Event& e : tracker_.take_events()) monitor_.on_event(e.kind, e.t);
+  for (const StateTracker::Event& e : tracker_.take_events()) {
+    monitor_.on_event(e.kind, e.t);
+    // A clock step: the sensor may have moved any distance meanwhile (carried while off, a long
+    // outage), farther than local re-localisation reaches. On a saved map, search it at once.
+    if (e.kind == TrackingEvent::kClockStep && saved_map_) jumped_ = true;
+  }
 }
 
 bool accept_scan(const LidarScan& scan, TimeGate& gate, const StateHistory& history, Counters& counters) {
@@ -106,12 +111,14 @@ ScanReport Estimator::ingest(const LidarScan& scan) {
   } else {
     search_when_lost(scan.t_end);
   }
+  jumped_ = false;
   return report;
 }
 
 void Estimator::localize_in(std::vector<Eigen::Vector3f> points, const std::optional<InitialPose>& initial_pose,
                             const std::optional<Eigen::Vector3d>& map_gravity) {
   map_gravity_ = map_gravity;
+  saved_map_ = true;
   localization_ = std::make_unique<SessionLocalization>(config_, std::move(points), initial_pose, map_gravity, config_.map.mode);
   StateHistory& history = tracker_.history();
   localization_->start(updater_, history, history.initialised() ? history.newest_time() : 0.0);
@@ -120,7 +127,8 @@ void Estimator::localize_in(std::vector<Eigen::Vector3f> points, const std::opti
 void Estimator::search_when_lost(double t) {
   const GlobalLocalizationConfig& c = config_.global_localization;
   const double lost = lost_for(monitor_);
-  if (!c.enabled || c.lost_search_after_s <= 0.0 || lost < c.lost_search_after_s) return;
+  const bool lost_long = c.lost_search_after_s > 0.0 && lost >= c.lost_search_after_s;
+  if (!c.enabled || (!lost_long && !jumped_)) return;
   std::vector<Eigen::Vector3f> points = points_of(updater_.map());
   if (points.empty()) return;
   try {
@@ -131,9 +139,12 @@ void Estimator::search_when_lost(double t) {
     return;
   }
   localization_->start(updater_, tracker_.history(), t);
-  counters_.count("lost_search", fmt::format("lost for {:.1f} s at t={:.3f} (local re-localisation failing): searching "
-                                             "the whole map for the sensor's place",
-                                             lost, t));
+  counters_.count("lost_search", lost_long ? fmt::format("lost for {:.1f} s at t={:.3f}: searching the whole map for the "
+                                                         "sensor's place",
+                                                         lost, t)
+                                           : fmt::format("clock step before t={:.3f}: the sensor may have moved anywhere; "
+                                                         "searching the whole saved map for its place",
+                                                         t));
 }
 
 void Estimator::localize_step(const ScanReport& report) {

@@ -87,7 +87,8 @@ class Estimator {
   /// After a scan's LiDAR step while localize_in's search runs: feeds it, takes a location it
   /// found (moving the history and the map), and confirms or drops a location taken.
   void localize_step(const ScanReport& report);
-  /// Lost and found: a track lost for global_localization.lost_search_after_s searches its map.
+  /// Lost and found: a track lost for global_localization.lost_search_after_s searches its map; on
+  /// a saved map, so does a clock step (the sensor may have moved any distance).
   void search_when_lost(double t);
 
   EstimatorConfig config_;
@@ -98,6 +99,8 @@ class Estimator {
   Counters counters_;  ///< scan checks
   std::unique_ptr<SessionLocalization> localization_;
   std::optional<Eigen::Vector3d> map_gravity_;  ///< the loaded map's, when it recorded it
+  bool saved_map_ = false;  ///< localize_in was called: the session runs on a saved map
+  bool jumped_ = false;     ///< a clock step since the last scan (searched at once on a saved map)
 };
 
 /// Checks a scan before the LiDAR step: its times, the state's initialisation, and its end against
