@@ -423,9 +423,7 @@ bool StateService::take_frame(const fuse_msgs::Correction& msg, const WorldFrame
 
 void StateService::write_pose(double t, const NavState& x) {
   if (!trajectory_.is_open()) return;
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = x.R;
-  T.translation() = x.p;
+  const Eigen::Isometry3d T = x.T_WI();
   constexpr std::size_t kMaxHeld = 1000000;  // ~28 h of scans at 10 Hz
   if (frame_.relocalizing() && held_poses_.size() < kMaxHeld) {
     if (held_poses_.empty() || t > held_poses_.back().first) held_poses_.emplace_back(t, T);

@@ -19,14 +19,7 @@ constexpr std::size_t kKeptVerdicts = 16;
 /// s of scan poses kept for set-pose requests about the recent past.
 constexpr double kTrackS = 60.0;
 
-double heading(const Eigen::Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); }
 double wrap(double a) { return std::atan2(std::sin(a), std::cos(a)); }
-Eigen::Isometry3d pose_of(const NavState& x) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = x.R;
-  T.translation() = x.p;
-  return T;
-}
 }  // namespace
 
 bool FrameLocalizer::reconcile(const WorldFrame& slice, StateHistory& history, LidarUpdater& updater, const MapContext& map) {
@@ -60,13 +53,13 @@ bool FrameLocalizer::reconcile(const WorldFrame& slice, StateHistory& history, L
     case fuse_msgs::MAP_FRAME_UNDECIDED:
       // The first scan of a new state: search a saved map for the session's place, or make the
       // session's frame the map's.
-      if ((config_.global_localization.enabled || request_) && !saved_map(updater).empty()) {
+      if ((config_.global_localization.enabled || request_) && has_saved_map(updater)) {
         begin_search(history, updater, t);
       } else {
         if (localization_) end_search(updater, fuse_msgs::MAP_FRAME_OWN);
         set_state(fuse_msgs::MAP_FRAME_OWN);
         logger(kLog)->info("world frame: the session's own frame is the map's ({})",
-                           saved_map(updater).empty() ? "no saved map" : "global localization is off");
+                           has_saved_map(updater) ? "global localization is off" : "no saved map");
       }
       break;
     case fuse_msgs::MAP_FRAME_SEARCHING:
@@ -83,7 +76,7 @@ bool FrameLocalizer::reconcile(const WorldFrame& slice, StateHistory& history, L
 
 LocalizationEvent FrameLocalizer::step(const ScanReport& report, StateHistory& history, LidarUpdater& updater,
                                        double lost_s) {
-  track_.emplace_back(report.t, pose_of(history.query(report.t).x));
+  track_.emplace_back(report.t, history.query(report.t).x.T_WI());
   while (!track_.empty() && track_.front().first < report.t - kTrackS) track_.pop_front();
   if (request_ && synced_) {  // a set-pose request: from the next scan, a search around it
     begin_search(history, updater, report.t);
@@ -91,7 +84,7 @@ LocalizationEvent FrameLocalizer::step(const ScanReport& report, StateHistory& h
   }
   if (!localization_) {
     const GlobalLocalizationConfig& c = config_.global_localization;
-    if (!synced_ || !c.enabled || c.lost_search_after_s <= 0.0 || lost_s < c.lost_search_after_s) return {};
+    if (!synced_ || unsearchable_ || !c.enabled || c.lost_search_after_s <= 0.0 || lost_s < c.lost_search_after_s) return {};
     // Lost and found: the track stopped fitting the map and local re-localisation keeps failing.
     begin_search(history, updater, report.t);
     LocalizationEvent e;
@@ -170,7 +163,7 @@ void FrameLocalizer::begin_search(StateHistory& history, LidarUpdater& updater, 
   std::optional<PoseCheck> check;
   if (request_) {
     // Where the IMU was, in the current frame, when the pose holds: the scan end nearest to it.
-    Eigen::Isometry3d T_S_imu = pose_of(history.query(t).x);
+    Eigen::Isometry3d T_S_imu = history.query(t).x.T_WI();
     if (request_->t > 0.0 && !track_.empty()) {
       const auto nearest = std::min_element(track_.begin(), track_.end(), [&](const auto& a, const auto& b) {
         return std::abs(a.first - request_->t) < std::abs(b.first - request_->t);
@@ -211,6 +204,9 @@ void FrameLocalizer::begin_search(StateHistory& history, LidarUpdater& updater, 
     next = std::make_unique<SessionLocalization>(config_, std::move(points), initial, map_.gravity, map_.mode);
   } catch (const std::exception& e) {
     logger(kLog)->error("global localization cannot search this map: {}", e.what());
+    unsearchable_ = true;  // not again on every lost scan: a new map clears it
+    problem_ = std::string("the saved map cannot be searched: ") + e.what() +
+               (localization_ ? "" : "; the session's frame is taken as the map's");
     if (check) verdicts_[check->id] = PoseVerdict{fuse_msgs::SET_POSE_REFUSED, {}, 0, 0, 0, e.what()};
     if (!localization_) set_state(frame_.state == fuse_msgs::MAP_FRAME_UNDECIDED ? fuse_msgs::MAP_FRAME_OWN : frame_.state);
     return;
@@ -233,6 +229,7 @@ void FrameLocalizer::end_search(LidarUpdater& updater, fuse_msgs::MapFrame state
 
 void FrameLocalizer::map_replaced(LidarUpdater& updater, const MapContext& map, double t) {
   map_ = map;
+  unsearchable_ = false;
   if (!localization_) return;
   if (frame_.state == fuse_msgs::MAP_FRAME_CONFIRMING) change(localization_->T_map_session().inverse());
   localization_.reset();
@@ -285,12 +282,12 @@ std::string FrameLocalizer::describe() const {
   return localization_ ? localization_->search().describe() : std::string(to_string(frame_.state));
 }
 
+bool FrameLocalizer::has_saved_map(const LidarUpdater& updater) const {
+  return localization_ ? !localization_->search().map_points().empty() : updater.map().size() > 0;
+}
+
 std::vector<Eigen::Vector3f> FrameLocalizer::saved_map(const LidarUpdater& updater) const {
-  if (localization_) return localization_->search().map_points();
-  std::vector<Eigen::Vector3f> points;
-  points.reserve(updater.map().size());
-  updater.map().for_each_point([&](const Eigen::Vector3f& p) { points.push_back(p); });
-  return points;
+  return localization_ ? localization_->search().map_points() : points_of(updater.map());
 }
 
 }  // namespace fuse::service

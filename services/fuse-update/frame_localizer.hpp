@@ -18,6 +18,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include "fuse/estimation/session_localization.hpp"
 #include "fuse/service/convert.hpp"
@@ -69,6 +70,8 @@ class FrameLocalizer {
     return frame_.state == fuse_msgs::MAP_FRAME_OWN || frame_.state == fuse_msgs::MAP_FRAME_LOCALIZED;
   }
   std::string describe() const;
+  /// A problem found since the last call (a saved map that cannot be searched), for health; empty if none.
+  std::string take_problem() { return std::exchange(problem_, std::string()); }
   std::size_t candidates() const { return localization_ ? localization_->candidates() : 0; }
 
  private:
@@ -97,12 +100,16 @@ class FrameLocalizer {
   /// Ends the search: the updater tracks the saved map again in `state`.
   void end_search(LidarUpdater& updater, fuse_msgs::MapFrame state);
   void judge_pose(const LocalizationEvent& e, bool refused_before, StateHistory& history, LidarUpdater& updater, double t);
+  /// The saved map's points (set aside by a search, or the updater's replica), and whether it has any.
   std::vector<Eigen::Vector3f> saved_map(const LidarUpdater& updater) const;
+  bool has_saved_map(const LidarUpdater& updater) const;
 
   EstimatorConfig config_;
   WorldFrame frame_;
   bool synced_ = false;  ///< frame_ follows fuse-state's (set at the first slice)
   bool dirty_ = false;   ///< frame_ changed since the last correction filled
+  bool unsearchable_ = false;  ///< the saved map cannot be searched (refused by the search): no lost search
+  std::string problem_;        ///< for take_problem()
   Eigen::Isometry3d unsent_ = Eigen::Isometry3d::Identity();   ///< the change not sent yet
   std::map<std::uint32_t, Eigen::Isometry3d> sent_;             ///< change that opened each recent epoch
   std::unique_ptr<SessionLocalization> localization_;

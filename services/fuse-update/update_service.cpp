@@ -524,6 +524,10 @@ void UpdateService::after_localization_step(const LocalizationEvent& e) {
     case LocalizationEvent::Kind::kSearchStarted: counters_.count("lost_search", e.message); break;
     case LocalizationEvent::Kind::kNone: break;
   }
+  if (const std::string problem = frame_.take_problem(); !problem.empty()) {
+    counters_.count("global_localization_impossible", problem);
+    last_error_ = problem;
+  }
   localization_ = frame_.describe();
   relocalizing_ = frame_.frame().relocalizing();
   bool decided = false;

@@ -128,7 +128,7 @@ void Estimator::search_when_lost(double t) {
   const GlobalLocalizationConfig& c = config_.global_localization;
   const double lost = lost_for(monitor_);
   const bool lost_long = c.lost_search_after_s > 0.0 && lost >= c.lost_search_after_s;
-  if (!c.enabled || (!lost_long && !jumped_)) return;
+  if (!c.enabled || unsearchable_ || (!lost_long && !jumped_)) return;
   std::vector<Eigen::Vector3f> points = points_of(updater_.map());
   if (points.empty()) return;
   try {
@@ -136,6 +136,7 @@ void Estimator::search_when_lost(double t) {
                                                           config_.map.mode);
   } catch (const std::invalid_argument& e) {
     counters_.count("lost_search_impossible", std::string("lost, and the map cannot be searched: ") + e.what());
+    unsearchable_ = true;  // the map does not change its size or gravity: not again on every scan
     return;
   }
   localization_->start(updater_, tracker_.history(), t);

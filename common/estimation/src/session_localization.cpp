@@ -24,7 +24,6 @@ MapLocalization make_search(const GlobalLocalizationConfig& config, std::vector<
   return MapLocalization(config, std::move(points), initial_pose, map_gravity ? *map_gravity : -Eigen::Vector3d::UnitZ());
 }
 
-double heading(const Eigen::Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); }
 }  // namespace
 
 SessionLocalization::SessionLocalization(const EstimatorConfig& config, std::vector<Eigen::Vector3f> map_points,

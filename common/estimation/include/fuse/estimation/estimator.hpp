@@ -101,6 +101,7 @@ class Estimator {
   std::optional<Eigen::Vector3d> map_gravity_;  ///< the loaded map's, when it recorded it
   bool saved_map_ = false;  ///< localize_in was called: the session runs on a saved map
   bool jumped_ = false;     ///< a clock step since the last scan (searched at once on a saved map)
+  bool unsearchable_ = false;  ///< a lost search found the map cannot be searched: not tried again
 };
 
 /// Checks a scan before the LiDAR step: its times, the state's initialisation, and its end against

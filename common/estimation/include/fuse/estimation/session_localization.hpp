@@ -13,6 +13,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <cmath>
 #include <memory>
 #include <optional>
 #include <string>
@@ -71,6 +72,9 @@ class SessionLocalization {
 /// global_localization.lost_search_after_s the owner searches the whole map again, a search that
 /// is verified before anything is taken (unlike a local re-localisation from a widened prior).
 double lost_for(const TrackingMonitor& monitor);
+
+/// The heading of a rotation: the angle of its x axis about z (the part a search turns).
+inline double heading(const Eigen::Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); }
 
 /// The points of a spatial index (the map to search when the track is lost).
 std::vector<Eigen::Vector3f> points_of(const SpatialIndex& map);
