@@ -12,21 +12,21 @@ for bin in "$@"; do
   if [ "$bin" = "--" ]; then dds=0; continue; fi
   name=$(basename "$bin")
   out=$("$bin" --help 2>&1); rc=$?
-  { [ "$rc" -eq 0 ] && echo "$out" | grep -q "Usage: $name"; } || { echo "FAILED: $name --help: exit $rc: $out"; failed=1; }
+  { [ "$rc" -eq 0 ] && grep -q "Usage: $name" <<< "$out"; } || { echo "FAILED: $name --help: exit $rc: $out"; failed=1; }
   out=$("$bin" --version 2>&1); rc=$?
   { [ "$rc" -eq 0 ] && [ "$out" = "$name (FUSE-SLAM) $version" ]; } || { echo "FAILED: $name --version: exit $rc: $out"; failed=1; }
   if [ "$dds" -eq 1 ]; then out=$("$bin" --config /dev/null --no-such-flag 2>&1); rc=$?
   else out=$("$bin" --no-such-flag 2>&1); rc=$?; fi
-  { [ "$rc" -eq 2 ] && echo "$out" | grep -q -- "--no-such-flag"; } || { echo "FAILED: $name --no-such-flag: exit $rc: $out"; failed=1; }
+  { [ "$rc" -eq 2 ] && grep -q -- "--no-such-flag" <<< "$out"; } || { echo "FAILED: $name --no-such-flag: exit $rc: $out"; failed=1; }
   if [ "$dds" -eq 0 ]; then
     [ "$failed" -eq 0 ] && echo "$name: --help, --version, a wrong flag: as the convention says"
     continue
   fi
   out=$("$bin" --config /dev/null --domain x 2>&1); rc=$?
-  { [ "$rc" -eq 2 ] && echo "$out" | grep -q -- "--domain"; } || { echo "FAILED: $name --domain x: exit $rc: $out"; failed=1; }
+  { [ "$rc" -eq 2 ] && grep -q -- "--domain" <<< "$out"; } || { echo "FAILED: $name --domain x: exit $rc: $out"; failed=1; }
   # Valid flags reach the config check (an empty config file is refused, naming it).
   out=$("$bin" --config /dev/null --domain 85 --vendor cyclonedds 2>&1); rc=$?
-  { [ "$rc" -eq 2 ] && ! echo "$out" | grep -q -- "not expected"; } || { echo "FAILED: $name --domain 85 --vendor cyclonedds: exit $rc: $out"; failed=1; }
+  { [ "$rc" -eq 2 ] && ! grep -q -- "not expected" <<< "$out"; } || { echo "FAILED: $name --domain 85 --vendor cyclonedds: exit $rc: $out"; failed=1; }
   [ "$failed" -eq 0 ] && echo "$name: --help, --version, a wrong flag, --domain, --vendor: as the convention says"
 done
 exit $failed

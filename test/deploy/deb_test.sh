@@ -40,20 +40,20 @@ services_depends=$(dpkg-deb --field "$(deb fuse-slam)" Depends)
 echo "fuse-slam Depends: $services_depends"
 if echo "$services_depends" | grep -Eq "libpcl|libvtk"; then fail "fuse-slam depends on PCL or VTK"; fi
 for lib in libfastrtps libddsc libyaml-cpp libprotobuf libfuse-slam-query3; do
-  echo "$services_depends" | grep -q "$lib" || fail "fuse-slam's Depends lacks $lib"
+  grep -q "$lib" <<< "$services_depends" || fail "fuse-slam's Depends lacks $lib"
 done
 if dpkg-deb --field "$(deb fuse-slam-tools)" Depends | grep -Eq "libpcl|libvtk"; then fail "fuse-slam-tools depends on PCL or VTK"; fi
 python_depends=$(dpkg-deb --field "$(deb python3-fuse-slam)" Depends)
 echo "python3-fuse-slam Depends: $python_depends"
 for dep in "python3 (" libfuse-slam-query3; do
-  echo "$python_depends" | grep -qF "$dep" || fail "python3-fuse-slam's Depends lacks $dep"
+  grep -qF "$dep" <<< "$python_depends" || fail "python3-fuse-slam's Depends lacks $dep"
 done
 dpkg-deb --info "$(deb fuse-slam)" conffiles | sort | tr '\n' ' ' |
   grep -qx "/etc/fuse-slam/fuse-slam.yaml /etc/fuse-slam/ingest.env " || fail "conffiles are not the config and ingest.env"
 for p in fuse-slam fuse-slam-tools; do
   contents=$(dpkg-deb --contents "$(deb $p)")
   for b in $(echo "$contents" | awk '$6 ~ /^\.\/usr\/bin\// { sub("./usr/bin/", "", $6); print $6 }'); do
-    echo "$contents" | grep -q "usr/share/man/man1/$b.1.gz" || fail "no man page for $b in $p"
+    grep -q "usr/share/man/man1/$b.1.gz" <<< "$contents" || fail "no man page for $b in $p"
   done
 done
 echo "no package pulls PCL or VTK; a man page for every binary"
