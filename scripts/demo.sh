@@ -3,7 +3,7 @@
 # FUSE services on it (fuse-map, fuse-state, fuse-update, fuse-ingest over DDS on loopback, in
 # lockstep), ask fuse-query for the state while they run, and print the trajectory error; then
 # the same recording through the single-process fuse-run for the per-scan time and a check that
-# both give the same trajectory.
+# both give the same trajectory; last, figures of the run (fuse-eval --plot) in $OUT/plots.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 SCENARIO=${SCENARIO:-corridor}
@@ -50,3 +50,7 @@ echo "four services: loop end-to-end error $(get end_to_end_m "$OUT/eval-system.
 echo "fuse-run:      loop end-to-end error $(get end_to_end_m "$OUT/eval-run.txt") m, ATE RMSE $(get ate_rmse_m "$OUT/eval-run.txt") m"
 echo "largest difference services vs fuse-run: $MAXDIFF"
 echo "per-scan time (fuse-run): mean $(get scan_time_mean_ms "$OUT/run.txt") ms, P95 $(get scan_time_p95_ms "$OUT/run.txt") ms, max $(get scan_time_max_ms "$OUT/run.txt") ms"
+# Figures of the services' run against the ground truth, with fuse-run's per-scan time.
+$BIN/fuse-eval --gt "$OUT/sim/groundtruth.tum" --est "$OUT/system/trajectory.tum" --delta 10 \
+  --plot "$OUT/plots" --timing "$OUT/run/timing.csv" > /dev/null 2> "$OUT/plots.log"
+echo "plots (SVG: top and side view, APE and RPE over distance, per-scan time): $OUT/plots/"

@@ -15,7 +15,7 @@ $SUDO apt-get install -y -q --no-install-recommends \
   libspdlog-dev libfmt-dev libyaml-cpp-dev libjsoncpp-dev \
   libgtest-dev libgmock-dev libbenchmark-dev \
   liblz4-dev libzstd-dev libbz2-dev libsqlite3-dev libcli11-dev \
-  systemd openssl iproute2 \
+  systemd openssl iproute2 gnuplot-nox \
   pybind11-dev python3-dev dh-python \
   debhelper lintian help2man chrpath dpkg-dev
 # Node.js is only used by the interoperability test (npm packages that read our MCAP files).

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <regex>
 #include <sstream>
+#include <vector>
 
 #include "fuse/eval/trajectory.hpp"
 #include "test_helpers.hpp"
@@ -22,9 +23,10 @@ struct ToolRun {
 };
 
 /// Runs fuse-eval with `args` (already shell-quoted), capturing stdout and stderr.
-ToolRun run_tool(const std::string& args) {
+/// `env` (e.g. "PATH=/x ") is put before the command.
+ToolRun run_tool(const std::string& args, const std::string& env = "") {
   const test::TempFile err_file("");
-  const std::string command = std::string("'") + FUSE_EVAL_BINARY + "' " + args + " 2>'" + err_file.path() + "'";
+  const std::string command = env + "'" + FUSE_EVAL_BINARY + "' " + args + " 2>'" + err_file.path() + "'";
   ToolRun run;
   FILE* pipe = popen(command.c_str(), "r");
   if (pipe == nullptr) return run;
@@ -114,6 +116,96 @@ TEST(Cli, MalformedFileExitsWithTwoNamingTheLine) {
   const ToolRun run = run_tool("--gt '" + files.gt.path() + "' --est '" + bad.path() + "'");
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_NE(run.err.find(bad.path() + ":2:"), std::string::npos) << run.err;
+}
+
+/// fuse-run's timing.csv for `n` scans at 10 Hz, scan i taking 2 + (i % 5) ms.
+std::string timing_csv(int n) {
+  std::string text = "scan,t,points_in,points_kept,deskew_ms,association_ms,update_ms,map_ms,total_ms\n";
+  for (int i = 0; i < n; ++i) {
+    text += std::to_string(i) + "," + std::to_string(100.0 + 0.1 * i) + ",1000,500,0.1,0.5,0.5,0.1," +
+            std::to_string(2 + i % 5) + ".0\n";
+  }
+  return text;
+}
+
+/// Rows of a whitespace-separated data file, '#' lines skipped.
+std::vector<std::vector<double>> read_rows(const std::string& path) {
+  std::vector<std::vector<double>> rows;
+  std::ifstream f(path);
+  std::string line;
+  while (std::getline(f, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream in(line);
+    std::vector<double> row;
+    for (double v = 0; in >> v;) row.push_back(v);
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+TEST(Cli, PlotDrawsEveryFigureFromTheErrorsItPrints) {
+  const SyntheticPair files;
+  const test::TempFile timing(timing_csv(50), ".csv");
+  const std::string dir = files.gt.path() + "_plots";
+  const ToolRun run = run_tool("--gt '" + files.gt.path() + "' --est '" + files.est.path() +
+                               "' --json --delta 2 --plot '" + dir + "' --timing '" + timing.path() + "'");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  for (const char* figure : {"trajectory_top", "trajectory_side", "ape", "rpe", "scan_time"}) {
+    const std::string svg = dir + "/" + figure + ".svg";
+    std::ifstream f(svg);
+    std::stringstream text;
+    text << f.rdbuf();
+    EXPECT_NE(text.str().find("<svg"), std::string::npos) << svg;
+    EXPECT_NE(text.str().find("</svg>"), std::string::npos) << svg << " is cut short";
+    EXPECT_NE(run.err.find("wrote " + svg), std::string::npos) << run.err;
+  }
+  // The figures' data are the errors the statistics were made of.
+  const auto ape = read_rows(dir + "/ape.dat");
+  ASSERT_EQ(ape.size(), 121u);
+  double ape_max = 0.0, rot_max = 0.0, distance = 0.0;
+  for (const auto& row : ape) {
+    ASSERT_EQ(row.size(), 4u);
+    EXPECT_GE(row[0], distance);  // distance travelled never decreases
+    distance = row[0];
+    ape_max = std::max(ape_max, row[2]);
+    rot_max = std::max(rot_max, row[3]);
+  }
+  EXPECT_NEAR(ape_max, json_number(run.out, "ate_max_m"), 1e-6);
+  EXPECT_NEAR(rot_max, json_number(run.out, "ate_rot_max_deg"), 1e-6);
+  EXPECT_NEAR(distance, json_number(run.out, "path_length_m"), 1e-5);
+  EXPECT_EQ(static_cast<double>(read_rows(dir + "/rpe.dat").size()), json_number(run.out, "rpe_pairs"));
+  const auto trajectory = read_rows(dir + "/trajectory.dat");
+  ASSERT_EQ(trajectory.size(), 121u);
+  const Trajectory gt = read_tum(files.gt.path());
+  EXPECT_NEAR(trajectory[7][2], gt[7].p.x(), 1e-6);  // reference x, y, z in columns 3-5
+  EXPECT_NEAR(trajectory[7][4], gt[7].p.z(), 1e-6);
+  const auto times = read_rows(dir + "/scan_time.dat");
+  ASSERT_EQ(times.size(), 50u);
+  EXPECT_NEAR(times[49][0], 4.9, 1e-6);
+  EXPECT_NEAR(times[49][1], 6.0, 1e-9);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Cli, PlotFailuresAreNamed) {
+  const SyntheticPair files;
+  const std::string both = "--gt '" + files.gt.path() + "' --est '" + files.est.path() + "' ";
+  const std::string dir = files.gt.path() + "_plots";
+  // --timing without --plot, and a timing file with a bad row: usage and input errors (2).
+  EXPECT_EQ(run_tool(both + "--timing '" + files.gt.path() + "'").exit_code, 2);
+  const test::TempFile bad("scan,t,total_ms\n0,1.0,2.0\n1,1.1,fast\n", ".csv");
+  const ToolRun bad_run = run_tool(both + "--plot '" + dir + "' --timing '" + bad.path() + "'");
+  EXPECT_EQ(bad_run.exit_code, 2);
+  EXPECT_NE(bad_run.err.find(bad.path() + ":3: 'fast' is not a finite number"), std::string::npos) << bad_run.err;
+  const test::TempFile no_column("scan,t\n0,1.0\n", ".csv");
+  EXPECT_NE(run_tool(both + "--plot '" + dir + "' --timing '" + no_column.path() + "'").err.find("no column 'total_ms'"),
+            std::string::npos);
+  // No gnuplot on PATH: the evaluation is printed, the plots fail with exit code 1 and say why.
+  const ToolRun no_gnuplot = run_tool("--gt '" + files.gt.path() + "' --est '" + files.est.path() + "' --plot '" +
+                                      dir + "'", "PATH=/nonexistent ");
+  EXPECT_EQ(no_gnuplot.exit_code, 1);
+  EXPECT_NE(no_gnuplot.out.find("ate_rmse_m: "), std::string::npos);
+  EXPECT_NE(no_gnuplot.err.find("gnuplot-nox"), std::string::npos) << no_gnuplot.err;
+  std::filesystem::remove_all(dir);
 }
 
 TEST(Cli, KittiOracleThroughTheBinary) {

@@ -82,6 +82,27 @@ TEST(Metrics, RpeSeesHeadingErrorAsTranslationError) {
   EXPECT_NEAR(errors[0], 2.0 * std::sin(theta / 2.0), 1e-12);
 }
 
+TEST(Metrics, RotationErrorsAreAnglesInDegrees) {
+  // APE: every estimate pose turned 2° about an arbitrary axis against its reference pose.
+  const Trajectory ref = line(13, 0.3);
+  Trajectory est = ref;
+  const Eigen::Quaterniond tilt(Eigen::AngleAxisd(2.0 * EIGEN_PI / 180.0, Eigen::Vector3d(1, 2, 3).normalized()));
+  for (StampedPose& pose : est) pose.q = pose.q * tilt;
+  for (const double e : ape_rotation_errors_deg(ref, est)) EXPECT_NEAR(e, 2.0, 1e-9);
+  // RPE: a yaw rate error of 0.5° per pose gives (j - i) * 0.5° over a pair; a constant turn, none.
+  Trajectory drifting = ref;
+  for (std::size_t i = 0; i < drifting.size(); ++i) {
+    drifting[i].q = Eigen::Quaterniond(Eigen::AngleAxisd(0.5 * EIGEN_PI / 180.0 * static_cast<double>(i),
+                                                         Eigen::Vector3d::UnitZ())) * drifting[i].q;
+  }
+  const std::vector<double> rpe = rpe_rotation_errors_deg(ref, drifting, {{2, 6}, {6, 12}});
+  EXPECT_NEAR(rpe[0], 2.0, 1e-9);
+  EXPECT_NEAR(rpe[1], 3.0, 1e-9);
+  for (const double e : rpe_rotation_errors_deg(ref, est, {{0, 12}})) EXPECT_NEAR(e, 0.0, 1e-9);
+  est.pop_back();
+  EXPECT_THROW(ape_rotation_errors_deg(ref, est), std::invalid_argument);
+}
+
 TEST(Metrics, ApeIsPositionDistance) {
   Trajectory ref = line(3, 0.0);
   Trajectory est = ref;

@@ -13,7 +13,8 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
       "fuse-eval",
       "Evaluates an estimated trajectory against a reference with evo's ATE and RPE definitions plus terminal "
       "drift (docs/evaluation-metrics.md). Prints 'name: value' lines, or one JSON object.",
-      "Exit codes: 0 success, 2 bad arguments, unreadable files or no evaluation possible.");
+      "Exit codes: 0 success, 1 the plots could not be drawn (gnuplot missing or failing), 2 bad arguments, "
+      "unreadable files or no evaluation possible.");
   std::string format = "tum", align = "se3";
   double delta = a.config.rpe_delta_m, t_max_diff = a.config.max_time_difference;
   app->add_option("--gt", a.gt_path, "reference (ground truth) trajectory")->type_name("FILE")->required();
@@ -32,6 +33,13 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
                   "itself: the error of a localized run, unaligned")
       ->type_name("GT EST")
       ->expected(2);
+  app->add_option("--plot", a.plot_dir,
+                  "also draw SVG figures into DIR with gnuplot: top and side view of the estimate against the "
+                  "reference, APE and RPE (translation in m, rotation in degrees) over the distance travelled, and "
+                  "with --timing the per-scan time; the data behind each figure is written beside it")
+      ->type_name("DIR");
+  app->add_option("--timing", a.timing_path, "fuse-run's timing.csv, drawn as per-scan time over the run (needs --plot)")
+      ->type_name("FILE");
   if (const std::optional<int> code = cli::parse(*app, argc, argv)) return code;
   try {
     a.format = eval::parse_trajectory_format(format);
@@ -52,6 +60,8 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
     }
     a.config.alignment = eval::AlignmentMode::kNone;
   }
+  if (!a.timing_path.empty() && a.plot_dir.empty()) return cli::usage_error(*app, "--timing: needs --plot DIR");
+  if (app->count("--plot") > 0 && a.plot_dir.empty()) return cli::usage_error(*app, "--plot: empty directory name");
   a.config.rpe_delta_m = delta;
   a.config.max_time_difference = t_max_diff;
   a.config.association =

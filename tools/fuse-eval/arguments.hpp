@@ -19,6 +19,8 @@ struct Arguments {
   /// --frame-of GT EST: the estimate is first moved by the SE(3) alignment of another run (EST
   /// against GT), e.g. the walk that made the map it was localized on; then no alignment of its own.
   std::vector<std::string> frame_of;
+  std::string plot_dir;     ///< --plot DIR: figures of the evaluation (empty: none)
+  std::string timing_path;  ///< --timing FILE: fuse-run's timing.csv, drawn with --plot
 };
 
 /// Parses and checks argv into `a`. std::nullopt: go on; otherwise the exit code to end with

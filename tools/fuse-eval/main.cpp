@@ -3,7 +3,9 @@
 // one JSON object on stdout; any bad input gives a message on stderr and exit code 2. With
 // --frame-of GT EST the estimate is put into the reference frame by another run's alignment (a
 // run localized on a saved map, in the frame of the walk that made the map) and not aligned itself.
+// With --plot DIR it also draws the evaluation's figures with gnuplot (fuse/eval/plot.hpp).
 #include <exception>
+#include <filesystem>
 #include <optional>
 #include <iostream>
 #include <string>
@@ -11,12 +13,32 @@
 #include "arguments.hpp"
 #include "fuse/eval/alignment.hpp"
 #include "fuse/eval/evaluate.hpp"
+#include "fuse/eval/plot.hpp"
+#include "fuse/eval/scan_times.hpp"
 #include "fuse/eval/trajectory.hpp"
 
 namespace {
 
 constexpr int kExitOk = 0;
+constexpr int kExitPlotFailed = 1;
 constexpr int kExitBadInput = 2;
+
+/// Draws the figures; a failure here is not a bad input (the evaluation was printed).
+int plot(const fuse::eval_tool::Arguments& args, const fuse::eval::ErrorSeries& series,
+         const std::optional<fuse::eval::ScanTimes>& times) {
+  fuse::eval::PlotConfig config;
+  config.title = std::filesystem::path(args.est_path).filename().string();
+  config.rpe_delta_m = args.config.rpe_delta_m;
+  try {
+    for (const std::string& figure : fuse::eval::write_plots(args.plot_dir, series, times ? &*times : nullptr, config)) {
+      std::cerr << "fuse-eval: wrote " << figure << "\n";
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "fuse-eval: --plot: " << e.what() << "\n";
+    return kExitPlotFailed;
+  }
+  return kExitOk;
+}
 
 int run(const fuse::eval_tool::Arguments& args) {
   const fuse::eval::Trajectory gt = fuse::eval::read_trajectory(args.gt_path, args.format);
@@ -30,9 +52,14 @@ int run(const fuse::eval_tool::Arguments& args) {
                              fuse::eval::read_trajectory(args.frame_of[1], args.format), other);
     est = fuse::eval::transform(est, frame.alignment);
   }
-  const fuse::eval::EvaluationResult result = fuse::eval::evaluate(gt, est, args.config);
-  std::cout << (args.json ? fuse::eval::format_json(result) : fuse::eval::format_text(result));
-  return kExitOk;
+  // Read before anything is printed: a bad timing file is a bad input like a bad trajectory.
+  std::optional<fuse::eval::ScanTimes> times;
+  if (!args.timing_path.empty()) times = fuse::eval::read_scan_times(args.timing_path);
+  fuse::eval::ErrorSeries series;
+  const fuse::eval::EvaluationResult result =
+      fuse::eval::evaluate(gt, est, args.config, args.plot_dir.empty() ? nullptr : &series);
+  std::cout << (args.json ? fuse::eval::format_json(result) : fuse::eval::format_text(result)) << std::flush;
+  return args.plot_dir.empty() ? kExitOk : plot(args, series, times);
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 
 #include "fuse/core/logging.hpp"
 #include "fuse/core/progress.hpp"
+#include "fuse/eval/scan_times.hpp"
 #include "fuse/eval/trajectory.hpp"
 #include "fuse/io/sensor_source.hpp"
 #include "fuse/map/map_storage.hpp"
@@ -84,14 +85,10 @@ void summarise_tracking(const Estimator& estimator, const TrackingConfig& config
 }
 
 void summarise_timing(RunSummary& s) {
-  if (s.scan_ms.empty()) return;
-  std::vector<double> sorted = s.scan_ms;
-  std::sort(sorted.begin(), sorted.end());
-  double sum = 0.0;
-  for (double v : sorted) sum += v;
-  s.mean_ms = sum / static_cast<double>(sorted.size());
-  s.p95_ms = sorted[std::min(sorted.size() - 1, static_cast<std::size_t>(0.95 * static_cast<double>(sorted.size())))];
-  s.max_ms = sorted.back();
+  const eval::TimeStatistics stats = eval::time_statistics(s.scan_ms);
+  s.mean_ms = stats.mean_ms;
+  s.p95_ms = stats.p95_ms;
+  s.max_ms = stats.max_ms;
 }
 }  // namespace
 

@@ -6,6 +6,7 @@
 #include <limits>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 #include "fuse/core/logging.hpp"
 
@@ -56,7 +57,8 @@ void EvaluationConfig::validate() const {
   }
 }
 
-EvaluationResult evaluate(const Trajectory& reference, const Trajectory& estimate, const EvaluationConfig& config) {
+EvaluationResult evaluate(const Trajectory& reference, const Trajectory& estimate, const EvaluationConfig& config,
+                          ErrorSeries* series) {
   config.validate();
   check_finite(reference, "reference");
   check_finite(estimate, "estimate");
@@ -79,15 +81,23 @@ EvaluationResult evaluate(const Trajectory& reference, const Trajectory& estimat
     throw std::runtime_error(std::string("alignment failed: ") + e.what());
   }
   const Trajectory aligned = transform(matched.estimate, r.alignment);
-  r.ate = compute_statistics(ape_translation_errors(matched.reference, aligned));
+  std::vector<double> ape_m = ape_translation_errors(matched.reference, aligned);
+  std::vector<double> ape_deg = ape_rotation_errors_deg(matched.reference, aligned);
+  r.ate = compute_statistics(ape_m);
+  r.ate_rotation_deg = compute_statistics(ape_deg);
 
-  // RPE: evo_rpe translation part, consecutive pairs every delta metres of reference path, unaligned.
-  const IdPairs pairs = pairs_by_path(matched.reference, config.rpe_delta_m);
+  // RPE: evo_rpe translation and rotation parts, consecutive pairs every delta metres of
+  // reference path, unaligned.
+  IdPairs pairs = pairs_by_path(matched.reference, config.rpe_delta_m);
+  std::vector<double> rpe_m, rpe_deg;
   if (pairs.empty()) {
     logger("eval")->warn("RPE: the reference path ({:.3f} m) is too short for delta {} m; no RPE",
                          path_length(matched.reference), config.rpe_delta_m);
   } else {
-    r.rpe = compute_statistics(rpe_translation_errors(matched.reference, matched.estimate, pairs));
+    rpe_m = rpe_translation_errors(matched.reference, matched.estimate, pairs);
+    rpe_deg = rpe_rotation_errors_deg(matched.reference, matched.estimate, pairs);
+    r.rpe = compute_statistics(rpe_m);
+    r.rpe_rotation_deg = compute_statistics(rpe_deg);
   }
 
   r.end_to_end_m = end_to_end_distance(estimate);
@@ -96,6 +106,19 @@ EvaluationResult evaluate(const Trajectory& reference, const Trajectory& estimat
   r.path_length_m = path_length(matched.reference);
   r.estimate_path_length_m = path_length(matched.estimate);
   r.drift_percent = r.path_length_m > 0.0 ? r.drift.translation_norm_m / r.path_length_m * kPercent : kNaN;
+  if (series != nullptr) {
+    series->distance_m.assign(n, 0.0);
+    for (std::size_t i = 1; i < n; ++i) {
+      series->distance_m[i] = series->distance_m[i - 1] + (matched.reference[i].p - matched.reference[i - 1].p).norm();
+    }
+    series->reference = matched.reference;
+    series->aligned = aligned;
+    series->ape_m = std::move(ape_m);
+    series->ape_deg = std::move(ape_deg);
+    series->rpe_pairs = std::move(pairs);
+    series->rpe_m = std::move(rpe_m);
+    series->rpe_deg = std::move(rpe_deg);
+  }
   return r;
 }
 
@@ -114,6 +137,10 @@ std::vector<std::pair<std::string, double>> result_fields(const EvaluationResult
       {"rpe_trans_std_m", rpe(&ErrorStatistics::std)},
       {"rpe_trans_max_m", rpe(&ErrorStatistics::max)},
       {"rpe_pairs", r.rpe ? static_cast<double>(r.rpe->count) : 0.0},
+      {"ate_rot_rmse_deg", r.ate_rotation_deg.rmse},
+      {"ate_rot_max_deg", r.ate_rotation_deg.max},
+      {"rpe_rot_rmse_deg", r.rpe_rotation_deg ? r.rpe_rotation_deg->rmse : kNaN},
+      {"rpe_rot_max_deg", r.rpe_rotation_deg ? r.rpe_rotation_deg->max : kNaN},
       {"end_to_end_m", r.end_to_end_m},
       {"gt_end_to_end_m", r.reference_end_to_end_m},
       {"drift_x_m", r.drift.translation_m.x()},

@@ -26,6 +26,17 @@ Eigen::Isometry3d to_isometry(const StampedPose& pose) {
   return T;
 }
 
+/// Angle of a rotation in degrees (the norm of its SO(3) logarithm).
+double angle_deg(const Eigen::Matrix3d& R) { return Eigen::AngleAxisd(R).angle() * kRadToDeg; }
+
+/// E_ij = (Q_i⁻¹ Q_j)⁻¹ (P_i⁻¹ P_j): the relative-pose error of one pair.
+Eigen::Isometry3d relative_error(const Trajectory& reference, const Trajectory& estimate, std::size_t i, std::size_t j) {
+  if (i >= reference.size() || j >= reference.size()) throw std::invalid_argument("RPE pair index out of range");
+  const Eigen::Isometry3d Q_rel = to_isometry(reference[i]).inverse() * to_isometry(reference[j]);
+  const Eigen::Isometry3d P_rel = to_isometry(estimate[i]).inverse() * to_isometry(estimate[j]);
+  return Q_rel.inverse() * P_rel;
+}
+
 /// numpy.median: the middle value, or the mean of the two middle values for an even count.
 double median(std::vector<double> values) {
   const std::size_t mid = values.size() / 2;
@@ -63,6 +74,16 @@ std::vector<double> ape_translation_errors(const Trajectory& reference, const Tr
   return errors;
 }
 
+std::vector<double> ape_rotation_errors_deg(const Trajectory& reference, const Trajectory& estimate) {
+  require_associated(reference, estimate);
+  std::vector<double> errors(reference.size());
+  for (std::size_t i = 0; i < reference.size(); ++i) {
+    errors[i] = angle_deg(reference[i].q.normalized().toRotationMatrix().transpose() *
+                          estimate[i].q.normalized().toRotationMatrix());
+  }
+  return errors;
+}
+
 IdPairs pairs_by_path(const Trajectory& trajectory, double delta_m) {
   if (!(delta_m > 0.0) || !std::isfinite(delta_m)) {
     throw std::invalid_argument("RPE delta must be a finite number of metres > 0, got " + std::to_string(delta_m));
@@ -86,13 +107,16 @@ std::vector<double> rpe_translation_errors(const Trajectory& reference, const Tr
   require_associated(reference, estimate);
   std::vector<double> errors;
   errors.reserve(pairs.size());
-  for (const auto& [i, j] : pairs) {
-    if (i >= reference.size() || j >= reference.size()) throw std::invalid_argument("RPE pair index out of range");
-    const Eigen::Isometry3d Q_rel = to_isometry(reference[i]).inverse() * to_isometry(reference[j]);
-    const Eigen::Isometry3d P_rel = to_isometry(estimate[i]).inverse() * to_isometry(estimate[j]);
-    const Eigen::Isometry3d E = Q_rel.inverse() * P_rel;
-    errors.push_back(E.translation().norm());
-  }
+  for (const auto& [i, j] : pairs) errors.push_back(relative_error(reference, estimate, i, j).translation().norm());
+  return errors;
+}
+
+std::vector<double> rpe_rotation_errors_deg(const Trajectory& reference, const Trajectory& estimate,
+                                            const IdPairs& pairs) {
+  require_associated(reference, estimate);
+  std::vector<double> errors;
+  errors.reserve(pairs.size());
+  for (const auto& [i, j] : pairs) errors.push_back(angle_deg(relative_error(reference, estimate, i, j).linear()));
   return errors;
 }
 

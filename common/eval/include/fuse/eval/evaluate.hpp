@@ -40,9 +40,11 @@ struct EvaluationResult {
   std::size_t estimate_poses = 0;
   Similarity3 alignment;     ///< estimate -> reference transform used for the ATE
   ErrorStatistics ate;       ///< APE translation part after alignment (m)
+  ErrorStatistics ate_rotation_deg;  ///< APE rotation angle after alignment (degrees)
   /// RPE translation part (m); empty when the reference path is too short for two pairs'
   /// worth of delta (evo would refuse with "empty index list").
   std::optional<ErrorStatistics> rpe;
+  std::optional<ErrorStatistics> rpe_rotation_deg;  ///< RPE rotation angle (degrees), with `rpe`
   double end_to_end_m = 0.0;           ///< ‖p_last - p_first‖ of the whole estimate
   double reference_end_to_end_m = 0.0; ///< the same for the whole reference
   TerminalDrift drift;                 ///< last matched pose, first poses aligned
@@ -51,11 +53,24 @@ struct EvaluationResult {
   double estimate_path_length_m = 0.0; ///< estimate path over the matched poses
 };
 
+/// The errors behind the statistics, pose by pose and pair by pair (fuse-eval --plot).
+struct ErrorSeries {
+  Trajectory reference;             ///< the matched reference poses
+  Trajectory aligned;               ///< the matched estimate poses after the ATE alignment
+  std::vector<double> distance_m;   ///< reference path travelled up to each matched pose
+  std::vector<double> ape_m;        ///< APE translation part per matched pose
+  std::vector<double> ape_deg;      ///< APE rotation angle per matched pose
+  IdPairs rpe_pairs;                ///< RPE pairs (indices into the matched poses)
+  std::vector<double> rpe_m;        ///< RPE translation part per pair
+  std::vector<double> rpe_deg;      ///< RPE rotation angle per pair
+};
+
 /// Evaluates `estimate` against `reference` (the ground truth). Throws std::invalid_argument on a
 /// bad config, non-finite poses or (timestamp association) timestamps that do not increase, and std::runtime_error when the trajectories cannot be evaluated (no matches,
 /// fewer than kMinMatchedPoses matches, degenerate alignment).
+/// With `series`, also fills the errors pose by pose.
 EvaluationResult evaluate(const Trajectory& reference, const Trajectory& estimate,
-                          const EvaluationConfig& config = {});
+                          const EvaluationConfig& config = {}, ErrorSeries* series = nullptr);
 
 /// Fewest matched poses an evaluation accepts: Umeyama needs three non-collinear points.
 inline constexpr std::size_t kMinMatchedPoses = 3;

@@ -30,6 +30,10 @@ ErrorStatistics compute_statistics(const std::vector<double>& errors);
 /// APE translation part (evo metrics.APE, PoseRelation.translation_part): ‖p_est,i - p_ref,i‖.
 std::vector<double> ape_translation_errors(const Trajectory& reference, const Trajectory& estimate);
 
+/// APE rotation part in degrees (evo metrics.APE, PoseRelation.rotation_angle_deg): the angle of
+/// R_ref,iᵀ R_est,i.
+std::vector<double> ape_rotation_errors_deg(const Trajectory& reference, const Trajectory& estimate);
+
 using IdPairs = std::vector<std::pair<std::size_t, std::size_t>>;
 /// evo filters.filter_pairs_by_path, consecutive pairs: walking along the poses, the path is
 /// accumulated and an index is kept (and the sum reset) each time the sum reaches delta_m;
@@ -40,6 +44,10 @@ IdPairs pairs_by_path(const Trajectory& trajectory, double delta_m);
 /// E_ij = (Q_i⁻¹ Q_j)⁻¹ (P_i⁻¹ P_j) with Q the reference, P the estimate; error ‖trans(E_ij)‖.
 std::vector<double> rpe_translation_errors(const Trajectory& reference, const Trajectory& estimate,
                                            const IdPairs& pairs);
+
+/// RPE rotation part in degrees (evo PoseRelation.rotation_angle_deg): the angle of E_ij above.
+std::vector<double> rpe_rotation_errors_deg(const Trajectory& reference, const Trajectory& estimate,
+                                            const IdPairs& pairs);
 
 /// Σ‖p_{i+1} - p_i‖ (evo PosePath3D.path_length); 0 for fewer than two poses.
 double path_length(const Trajectory& trajectory);
