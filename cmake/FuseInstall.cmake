@@ -16,10 +16,11 @@
 include(GNUInstallDirs)
 
 set(FUSE_DEPLOY_DIR ${PROJECT_SOURCE_DIR}/deploy)
-set(FUSE_UNITS fuse-slam-map.service fuse-slam-state.service fuse-slam-update.service fuse-slam-ingest.service)
+set(FUSE_UNITS fuse-slam-map.service fuse-slam-state.service fuse-slam-update.service fuse-slam-ingest.service
+               fuse-slam-viz.service)
 
-# ---- binaries: the four services and the operator tools ---------------------------------
-install(TARGETS fuse-map fuse-state fuse-update fuse-ingest
+# ---- binaries: the four services, the live view and the operator tools ---------------------------------
+install(TARGETS fuse-map fuse-state fuse-update fuse-ingest fuse-viz
   RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT runtime)
 install(TARGETS fuse-launch fuse-map-ctl fuse-keystore fuse-map-export fuse-record fuse-run fuse-eval fuse-sim fuse-import
   RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT runtime)

@@ -13,7 +13,7 @@ $SUDO apt-get install -y -q --no-install-recommends \
   cyclonedds-dev cyclonedds-tools \
   libprotobuf-dev protobuf-compiler \
   libspdlog-dev libfmt-dev libyaml-cpp-dev libjsoncpp-dev \
-  libgtest-dev libgmock-dev libbenchmark-dev \
+  libgtest-dev libgmock-dev libbenchmark-dev libboost-dev \
   liblz4-dev libzstd-dev libbz2-dev libsqlite3-dev libcli11-dev \
   systemd openssl iproute2 gnuplot-nox \
   pybind11-dev python3-dev dh-python \

@@ -31,6 +31,7 @@ UpdateService::UpdateService(const SystemConfig& config, transport::Participant&
       counters_(logger(kName)),
       corrections_(participant, transport::topics::kCorrection),
       observations_(participant, transport::topics::kObservation),
+      world_scans_(participant, transport::topics::kWorldScan),
       history_(participant, transport::services::kHistory) {
   auto bad = [this](const char* topic) {
     return [this, topic](const std::string& why) {
@@ -449,6 +450,7 @@ UpdateService::Outcome UpdateService::process(LidarScan& scan) {
   }
   frame_.fill(c);
   corrections_.publish(c);
+  publish_world_scan(scan);
   gravity_ = q.x.g;
   if (frame_.writes_map()) offer_to_map(scan.t_end);
   std::lock_guard<std::mutex> lock(mutex_);
@@ -456,6 +458,26 @@ UpdateService::Outcome UpdateService::process(LidarScan& scan) {
   counters_.add("scans_processed");
   if (report.updated) counters_.add("scans_updated");
   return Outcome::kDone;
+}
+
+void UpdateService::publish_world_scan(const LidarScan& scan) {
+  const std::vector<Eigen::Vector3f>& points = updater_.last_scan_points();
+  if (points.empty() || world_scans_.matched() == 0) return;  // for viewers: without one, no work
+  fuse_msgs::WorldScan m;
+  m.t(scan.t_end);
+  m.scan_sequence(scan.sequence);
+  const Eigen::Isometry3d& T = updater_.last_T_world_lidar();
+  m.sensor_pose(to_pose(T.translation(), T.linear()));
+  const Eigen::Matrix3f R = T.linear().cast<float>();
+  const Eigen::Vector3f p = T.translation().cast<float>();
+  m.points().resize(std::min(points.size(), kMaxWorldScanPoints));
+  for (std::size_t i = 0; i < m.points().size(); ++i) {
+    const Eigen::Vector3f w = R * points[i] + p;
+    m.points()[i].x(w.x());
+    m.points()[i].y(w.y());
+    m.points()[i].z(w.z());
+  }
+  world_scans_.publish(m);
 }
 
 void UpdateService::offer_to_map(double t) {

@@ -66,6 +66,11 @@ class UpdateService {
   void bring_up_to_date(StateHistory& history, double slice_last_correction_t);
   void publish_skipped(const LidarScan& scan);
   void offer_to_map(double t);
+  /// The processed scan's deskewed points in the world frame on update/world_scan, for viewers
+  /// (fuse-viz, fuse-record); nothing is built while no reader is matched.
+  void publish_world_scan(const LidarScan& scan);
+  /// Most points one WorldScan carries (the bound of WorldScan.points in fuse_msgs.idl).
+  static constexpr std::size_t kMaxWorldScanPoints = 262144;
   void resend_unacked(bool all);
   /// RPC update/set_pose: waits (its own thread) for the verdict, at most the request's wait_s.
   void on_set_pose(const fuse_msgs::SetPoseRequest& req, fuse_msgs::SetPoseReply& rep);
@@ -121,6 +126,7 @@ class UpdateService {
 
   transport::Publisher<fuse_msgs::Correction> corrections_;
   transport::Publisher<fuse_msgs::MapObservation> observations_;
+  transport::Publisher<fuse_msgs::WorldScan> world_scans_;
   transport::RpcClient<fuse_msgs::HistoryRequest, fuse_msgs::HistoryReply> history_;
   std::unique_ptr<transport::Subscriber<fuse_msgs::MapChunk>> chunk_sub_;
   std::unique_ptr<transport::Subscriber<fuse_msgs::MapStatus>> status_sub_;

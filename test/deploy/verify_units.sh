@@ -12,7 +12,8 @@ fi
 rm -rf "$root"
 DESTDIR="$root" "$cmake_command" --install "$build" --prefix /usr --component runtime >/dev/null
 units="$root/usr/lib/systemd/system"
-for f in fuse-slam.target fuse-slam-map.service fuse-slam-state.service fuse-slam-update.service fuse-slam-ingest.service; do
+for f in fuse-slam.target fuse-slam-map.service fuse-slam-state.service fuse-slam-update.service fuse-slam-ingest.service \
+         fuse-slam-viz.service; do
   [ -f "$units/$f" ] || { echo "FAILED: $f was not installed to $units"; exit 1; }
 done
 for f in usr/lib/sysusers.d/fuse-slam.conf usr/lib/sysctl.d/60-fuse-slam-dds.conf etc/fuse-slam/fuse-slam.yaml etc/fuse-slam/ingest.env \
@@ -39,7 +40,7 @@ trap 'rm -f "$log"' EXIT
 status=0
 SYSTEMD_LOG_LEVEL=notice systemd-analyze verify --root="$root" --man=no \
   "$units/fuse-slam.target" "$units/fuse-slam-map.service" "$units/fuse-slam-state.service" \
-  "$units/fuse-slam-update.service" "$units/fuse-slam-ingest.service" >"$log" 2>&1 || status=$?
+  "$units/fuse-slam-update.service" "$units/fuse-slam-ingest.service" "$units/fuse-slam-viz.service" >"$log" 2>&1 || status=$?
 cat "$log"
 if [ "$status" -ne 0 ]; then echo "FAILED: systemd-analyze verify exited with $status"; exit 1; fi
 if grep -E "fuse[-.a-z]*\.(service|target)" "$log"; then echo "FAILED: systemd-analyze verify reported problems in our units"; exit 1; fi

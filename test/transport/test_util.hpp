@@ -227,6 +227,15 @@ inline fuse_msgs::MapObservation make_observation(int seed) {
   return m;
 }
 
+inline fuse_msgs::WorldScan make_world_scan(int seed) {
+  fuse_msgs::WorldScan m;
+  m.t(v(seed, 2));
+  m.scan_sequence(seed + 7);
+  m.sensor_pose(pose(seed, 3));
+  m.points(points3f(seed, 31));
+  return m;
+}
+
 inline std::vector<fuse_msgs::SessionAck> session_acks(int seed) {
   std::vector<fuse_msgs::SessionAck> acks(3);
   for (std::size_t i = 0; i < acks.size(); ++i) {
@@ -415,6 +424,7 @@ FUSE_TEST_SAMPLE(LidarScan, topics::kLidarScan, [](int s) { return make_scan(s);
 FUSE_TEST_SAMPLE(StateEstimate, topics::kCorrected, make_state)
 FUSE_TEST_SAMPLE(Correction, topics::kCorrection, make_correction)
 FUSE_TEST_SAMPLE(MapObservation, topics::kObservation, make_observation)
+FUSE_TEST_SAMPLE(WorldScan, topics::kWorldScan, make_world_scan)
 FUSE_TEST_SAMPLE(MapChunk, topics::kMapChunk, [](int s) { return make_chunk(100 + s, 1, s); })
 FUSE_TEST_SAMPLE(MapStatus, topics::kMapStatus, make_map_status)
 FUSE_TEST_SAMPLE(Health, topics::kHealth, make_health)
@@ -436,6 +446,7 @@ void for_each_type(F&& f) {
   f(fuse_msgs::StateEstimate{});
   f(fuse_msgs::Correction{});
   f(fuse_msgs::MapObservation{});
+  f(fuse_msgs::WorldScan{});
   f(fuse_msgs::MapChunk{});
   f(fuse_msgs::MapStatus{});
   f(fuse_msgs::Health{});

@@ -56,6 +56,7 @@ std::vector<TopicType> make_catalog() {
       entry<fuse_msgs::StateEstimate>(topics::kCorrected),
       entry<fuse_msgs::Correction>(topics::kCorrection),
       entry<fuse_msgs::MapObservation>(topics::kObservation),
+      entry<fuse_msgs::WorldScan>(topics::kWorldScan),
       entry<fuse_msgs::MapChunk>(topics::kMapChunk),
       entry<fuse_msgs::MapStatus>(topics::kMapStatus),
       entry<fuse_msgs::Health>(topics::kHealth),

@@ -19,7 +19,7 @@ namespace fuse {
 void RunnerConfig::load(ConfigNode& root) {
   load_section(root, "estimator", estimator);
   // One config file serves fuse-run and the services: their sections are theirs to validate.
-  for (const char* service_section : {"transport", "ingest", "state", "update", "map_server", "scheduling", "health"}) {
+  for (const char* service_section : {"transport", "ingest", "state", "update", "map_server", "scheduling", "health", "viz"}) {
     root.child(service_section);
   }
   root.finish();

@@ -121,6 +121,7 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
   report.sequence = scan.sequence;
   report.points_in = scan.points.size();
   points_W_.clear();
+  points_L_.clear();
   // 1. Range filter and voxel downsampling on the raw (LiDAR frame) points. Points measured before
   //    the end of a data gap in the scan are dropped: nothing measured the motion that would
   //    deskew them (a handheld sensor turns by ~15° in a 0.1 s scan).

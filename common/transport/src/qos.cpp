@@ -37,6 +37,8 @@ std::map<std::string, TopicQos> make_table() {
   t[topics::kCorrection] = qos(kReliable, kTransientLocal, 50);
   // Every accepted scan's points must reach the map server (it journals them); 100 in flight.
   t[topics::kObservation] = qos(kReliable, kVolatile, 100);
+  // For viewers only: the newest deskewed scan matters, a lost one is superseded by the next.
+  t[topics::kWorldScan] = qos(kBestEffort, kVolatile, 2);
   // Keyed by chunk: depth 1 per instance, so a late-joining replica gets the latest of every chunk.
   t[topics::kMapChunk] = qos(kReliable, kTransientLocal, 1);
   // Latest map status (epoch, mode, acked sequence) for late joiners.

@@ -91,7 +91,7 @@ Grant role_grant(const std::string& role) {
     add_server(g, services::kQuery);
     add_server(g, services::kHistory);
   } else if (role == "update") {
-    g.publish = {kCorrection, kObservation, kHealth};
+    g.publish = {kCorrection, kObservation, kWorldScan, kHealth};
     g.subscribe = {kLidarScan, kCorrected, kMapChunk, kMapStatus, kHealth};
     add_client(g, services::kHistory);
     add_server(g, services::kSetPose);
@@ -107,7 +107,8 @@ Grant role_grant(const std::string& role) {
     add_client(g, services::kMapControl);
     add_client(g, services::kSetPose);
   } else if (role == "recorder") {
-    g.subscribe = {kImu, kLidarScan, kOdometry, kCorrected, kCorrection, kObservation, kMapChunk, kMapStatus, kHealth};
+    g.subscribe = {kImu,        kLidarScan, kOdometry,  kCorrected, kCorrection,
+                   kObservation, kWorldScan, kMapChunk, kMapStatus, kHealth};
     for (const char* s : {services::kQuery, services::kHistory, services::kMapControl, services::kSetPose}) {
       g.subscribe.push_back(request_topic(s));
       g.subscribe.push_back(reply_topic(s));
@@ -115,7 +116,7 @@ Grant role_grant(const std::string& role) {
   } else if (role == "monitor") {
     g.subscribe = {kHealth, kCorrected, kCorrection, kMapStatus};
   } else if (role == "viz") {
-    g.subscribe = {kLidarScan, kOdometry, kCorrected, kCorrection, kMapChunk, kMapStatus, kHealth};
+    g.subscribe = {kLidarScan, kOdometry, kCorrected, kCorrection, kWorldScan, kMapChunk, kMapStatus, kHealth};
   } else {
     throw std::invalid_argument("unknown role '" + role + "'");
   }

@@ -62,6 +62,31 @@ void UpdateServiceConfig::load(ConfigNode& node) {
   node.finish();
 }
 
+void VizConfig::load(ConfigNode& node) {
+  node.get("address", address).get("port", port).get("max_client_queue_mb", max_client_queue_mb);
+  node.get("max_clients", max_clients).get("map_period_s", map_period_s);
+  node.get("trajectory_period_s", trajectory_period_s).get("max_trajectory_poses", max_trajectory_poses);
+  node.get("world_frame", world_frame).get("imu_frame", imu_frame).get("lidar_frame", lidar_frame);
+  node.check(port >= 0 && port <= 65535, "port", "must be in [0, 65535]");
+  node.check(std::isfinite(max_client_queue_mb) && max_client_queue_mb >= 1.0 && max_client_queue_mb <= 4096.0,
+             "max_client_queue_mb", "must be in [1, 4096] MiB");
+  node.check(max_clients >= 1 && max_clients <= 256, "max_clients", "must be in [1, 256]");
+  node.check(std::isfinite(map_period_s) && map_period_s >= 0.1 && map_period_s <= 600.0, "map_period_s",
+             "must be in [0.1, 600] s");
+  node.check(std::isfinite(trajectory_period_s) && trajectory_period_s >= 0.1 && trajectory_period_s <= 600.0,
+             "trajectory_period_s", "must be in [0.1, 600] s");
+  node.check(max_trajectory_poses >= 100 && max_trajectory_poses <= 10000000, "max_trajectory_poses",
+             "must be in [100, 10000000]");
+  for (const auto& [key, frame] : {std::pair<const char*, const std::string*>{"world_frame", &world_frame},
+                                   {"imu_frame", &imu_frame},
+                                   {"lidar_frame", &lidar_frame}}) {
+    node.check(!frame->empty() && frame->size() <= 64, key, "must be a name of 1 to 64 characters");
+  }
+  node.check(world_frame != imu_frame && imu_frame != lidar_frame && world_frame != lidar_frame, "lidar_frame",
+             "the three frame names must differ");
+  node.finish();
+}
+
 int SchedulingConfig::slice_us(const std::string& service) const {
   if (service == "fuse-ingest") return ingest_slice_us;
   if (service == "fuse-state") return state_slice_us;
@@ -102,6 +127,7 @@ void SystemConfig::load(ConfigNode& root) {
   load_section(root, "map_server", map_server);
   load_section(root, "scheduling", scheduling);
   load_section(root, "health", health);
+  load_section(root, "viz", viz);
   root.finish();
 }
 

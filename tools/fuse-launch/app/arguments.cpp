@@ -37,7 +37,8 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
   launch::LaunchOptions& o = a.launch;
   const auto app = cli::make_app(
       "fuse-launch",
-      "Starts fuse-map, fuse-state, fuse-update, then fuse-ingest replaying PATH; when the replay is done, stops "
+      "Starts fuse-map, fuse-state, fuse-update (with --viz also fuse-viz), then fuse-ingest replaying PATH; when "
+      "the replay is done, stops "
       "the others (the last started first; SIGKILL after --stop-timeout-ms). Watches the bus and ends with a "
       "summary of restarts, data gaps, counters and what was lost.",
       "Exit codes: 0 every service did its part and nothing was lost, 1 a service failed (its last error line is "
@@ -71,6 +72,9 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
   app->add_flag("--restart", o.restart,
                 "restart a service that dies unexpectedly (backoff 250 ms, doubling over early deaths; fuse-ingest "
                 "only in realtime mode); not one that exits 2 or 4");
+  app->add_flag("--viz", o.viz,
+                "also run fuse-viz, the live view: a Foxglove WebSocket server on viz.address:viz.port "
+                "(127.0.0.1:8765 by default) to open in Foxglove or Lichtblick");
   app->add_option("--max-restarts", max_restarts, "restarts in a row before giving up, 0..1000 (default 5)")
       ->type_name("N");
   app->add_option("--stop-timeout-ms", stop_timeout, "SIGKILL a service this long after SIGTERM (default 5000)")

@@ -63,6 +63,7 @@ LaunchPlan make_launch_plan(const LaunchOptions& o, double start_wall) {
                                                     "--calibration-from", o.input, "--set",
                                                     "state.checkpoint_file=" + path_in(o.out_dir, "state.checkpoint")}));
   plan.services.push_back(service(o, "fuse-update", {}));
+  if (o.viz) plan.services.push_back(service(o, "fuse-viz", {}));
   std::vector<std::string> ingest{"--input", o.input, "--mode", o.mode};
   if (o.rate) ingest.insert(ingest.end(), {"--rate", number(*o.rate)});
   if (o.mode == "realtime") ingest.insert(ingest.end(), {"--start-wall", microseconds(start_wall)});

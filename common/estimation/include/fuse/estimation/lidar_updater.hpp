@@ -45,6 +45,9 @@ class LidarUpdater {
   /// offered to the map; empty when a re-localisation did not converge) and the pose they were placed with.
   const std::vector<Eigen::Vector3f>& last_world_points() const { return points_W_; }
   const Eigen::Isometry3d& last_T_world_lidar() const { return T_WL_; }
+  /// The last processed scan's points, deskewed and downsampled, in the LiDAR frame at its end
+  /// (last_T_world_lidar() places them); empty when it had none. For viewers: every point, held or not.
+  const std::vector<Eigen::Vector3f>& last_scan_points() const { return points_L_; }
 
   SpatialIndex& map() { return *map_; }
   /// Starts over with an empty map (a replica about to be rebuilt from the map server).

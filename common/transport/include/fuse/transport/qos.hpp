@@ -15,6 +15,8 @@ inline constexpr const char* kOdometry = "state/odometry";
 inline constexpr const char* kCorrected = "state/corrected";
 inline constexpr const char* kCorrection = "update/correction";
 inline constexpr const char* kObservation = "map/observation";
+/// Every processed scan's deskewed points in the world frame (fuse-update), for viewers.
+inline constexpr const char* kWorldScan = "update/world_scan";
 inline constexpr const char* kMapChunk = "map/chunk";
 inline constexpr const char* kMapStatus = "map/status";
 inline constexpr const char* kHealth = "health";

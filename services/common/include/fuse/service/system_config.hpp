@@ -107,6 +107,21 @@ struct HealthConfig {
   void load(ConfigNode& node);
 };
 
+/// fuse-viz, the live view (docs/architecture.md, "Live view"): a Foxglove WebSocket server.
+struct VizConfig {
+  std::string address = "127.0.0.1";  ///< listen address: localhost unless the operator opens it
+  int port = 8765;                    ///< Foxglove's default; 0 takes any free port (logged)
+  double max_client_queue_mb = 64.0;  ///< per client; a slow client loses its oldest samples beyond it
+  int max_clients = 16;
+  double map_period_s = 1.0;          ///< the whole map is sent at most this often, when it changed
+  double trajectory_period_s = 1.0;   ///< the trajectory so far, likewise
+  std::size_t max_trajectory_poses = 20000;  ///< beyond it the trajectory is thinned to every other pose
+  std::string world_frame = "world";  ///< frame names of the transform tree world -> imu -> lidar
+  std::string imu_frame = "imu";
+  std::string lidar_frame = "lidar";
+  void load(ConfigNode& node);
+};
+
 struct SystemConfig {
   EstimatorConfig estimator;
   transport::TransportConfig transport;
@@ -116,6 +131,7 @@ struct SystemConfig {
   MapServerConfig map_server;
   SchedulingConfig scheduling;
   HealthConfig health;
+  VizConfig viz;
   void load(ConfigNode& root);
 };
 

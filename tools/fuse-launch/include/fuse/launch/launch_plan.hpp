@@ -1,5 +1,5 @@
-// The command lines of one FUSE deployment (DESIGN §2): fuse-map, fuse-state, fuse-update, then
-// the driver fuse-ingest, each with the shared config and overrides.
+// The command lines of one FUSE deployment (DESIGN §2): fuse-map, fuse-state, fuse-update, with
+// --viz fuse-viz, then the driver fuse-ingest, each with the shared config and overrides.
 #pragma once
 
 #include <optional>
@@ -22,6 +22,7 @@ struct LaunchOptions {
   std::vector<std::string> overrides;  ///< --set key=value for every service, in order
   std::string bin_dir;               ///< where the service binaries are
   bool restart = false;              ///< restart services that die unexpectedly
+  bool viz = false;                  ///< also run fuse-viz, the live view (Foxglove WebSocket)
 };
 
 struct LaunchPlan {
