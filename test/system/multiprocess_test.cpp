@@ -435,9 +435,11 @@ TEST_F(MultiProcess, TwoIngestsAreReportedAndTheirImuIsNotMixed) {
   p.start("fuse-ingest", kData, {"--mode", "realtime"});
   Process second = p.start_another("fuse-ingest", kData, {"--mode", "realtime"}, "fuse-ingest-second");
   const auto until = std::chrono::steady_clock::now() + 90s;
+  // Each of the three says so in its own time (each hears the other's heartbeats): wait for all.
   const auto seen = [&] {
     return p.log("fuse-state", 1).find("imu_refused_two_ingests") != std::string::npos &&
-           read_file(p.dir() + "/logs/fuse-ingest-second.log").find("alive at the same time") != std::string::npos;
+           read_file(p.dir() + "/logs/fuse-ingest-second.log").find("alive at the same time") != std::string::npos &&
+           p.log("fuse-ingest", 1).find("fuse-ingest instances") != std::string::npos;
   };
   while (!seen() && std::chrono::steady_clock::now() < until) std::this_thread::sleep_for(100ms);
   EXPECT_TRUE(seen()) << p.diagnose();

@@ -8,6 +8,9 @@
 //   - the last map's point count equals the map server's (map/status, what fuse-map-ctl stats
 //     says);
 //   - every frame_id is reachable in the one transform tree (world -> imu -> lidar).
+// fuse-record records the same run; its file's Foxglove channels are read back with the reference
+// MCAP reader and the schemas embedded in the file (client/read_foxglove_recording.mjs): a
+// /fuse/scan per update/world_scan sample, and a last /fuse/map of the map server's size.
 // DDS domain 9 belongs to this file.
 #include <gtest/gtest.h>
 #include <json/json.h>
@@ -148,6 +151,10 @@ TEST(VizSystem, AFoxgloveClientSeesWhatTheSystemEstimates) {
   };
   ASSERT_TRUE(wait_until([&] { return count("channel") == 8; }, 60s)) << read_file(dir + "/logs/client.log");
 
+  Process recorder = Process::spawn(args("fuse-record", {"--out", dir + "/recording", "--calibration-from", kRecording}),
+                                    dir + "/logs/fuse-record.log");
+  ASSERT_TRUE(wait_until([&] { return read_file(dir + "/logs/fuse-record.log").find("recording ") != std::string::npos; },
+                         60s));
   Process ingest = Process::spawn(args("fuse-ingest", {"--input", kRecording, "--mode", "lockstep"}),
                                   dir + "/logs/fuse-ingest.log");
   const auto done = ingest.wait_for(240s);
@@ -167,6 +174,17 @@ TEST(VizSystem, AFoxgloveClientSeesWhatTheSystemEstimates) {
     }
     return server_points > 0 && last_map_points == static_cast<double>(server_points);
   }, 60s)) << "map server " << server_points << " points, client's last map " << last_map_points;
+
+  // The recording of the same run draws the same: read back with the schemas in the file.
+  const auto recorded = recorder.terminate(30s);
+  EXPECT_EQ(recorded.status.code, 0) << read_file(dir + "/logs/fuse-record.log");
+  Process reader = Process::spawn({FUSE_NODE, kClientDir + "/read_foxglove_recording.mjs",
+                                   dir + "/recording/recording_000.mcap", "--pair", "/fuse/scan=update/world_scan",
+                                   "--pair", "/fuse/pose=state/odometry", "--map-points", std::to_string(server_points)},
+                                  dir + "/logs/read_recording.log");
+  const auto read_status = reader.wait_for(120s);
+  ASSERT_TRUE(read_status.has_value());
+  EXPECT_EQ(read_status->code, 0) << read_file(dir + "/logs/read_recording.log");
 
   // Scan-rate poses against fuse-query for the same time.
   std::vector<Json::Value> poses;

@@ -3,13 +3,15 @@
 //   fuse-record --config FILE [--set key=value]... [--out DIR] [--prefix NAME]
 //               [--include PATTERNS] [--exclude PATTERNS]     (comma-separated globs; all topics by default)
 //               [--max-bytes N] [--max-seconds S] [--queue-bytes N]
-//               [--compression zstd|lz4|none] [--calibration-from INPUT]
+//               [--compression zstd|lz4|none] [--calibration-from INPUT] [--foxglove on|off]
 //
 // Writes DIR/NAME_000.mcap, NAME_001.mcap, ... until SIGINT/SIGTERM, then closes the last file
 // (summary and footer) and prints a summary: messages, bytes, dropped and malformed per topic.
 // --calibration-from copies the LiDAR-IMU extrinsic of a recording or sequence directory into
 // every file (DDS does not carry it), so a replay uses the same extrinsic as the original run.
-// Replay a recording with fuse-ingest / fuse-launch --input DIR/NAME_000.mcap.
+// Replay a recording with fuse-ingest / fuse-launch --input DIR/NAME_000.mcap. Beside the topics,
+// each file holds the Foxglove channels fuse-viz serves (JSON with JSON Schemas; --foxglove off
+// leaves them out), so that it opens in Foxglove or Lichtblick and draws the map, scan and path.
 // Exit codes: 0 recorded and closed; 1 runtime failure (output, DDS); 2 usage or config.
 #include <charconv>
 #include <iostream>
@@ -64,7 +66,11 @@ fuse::io::Compression parse_compression(const std::string& text) {
 void print_summary(const fuse::record::Recorder& r) {
   std::uint64_t messages = 0, bytes = 0, dropped = 0, malformed = 0;
   std::cout << "fuse-record summary\n";
-  for (const auto& f : r.files()) std::cout << "file " << f.path << ": " << f.messages << " messages, " << f.bytes << " bytes\n";
+  for (const auto& f : r.files()) {
+    std::cout << "file " << f.path << ": " << f.messages << " messages, " << f.bytes << " bytes";
+    if (f.extra_messages > 0) std::cout << " (and " << f.extra_messages << " on the Foxglove channels)";
+    std::cout << "\n";
+  }
   for (const auto& t : r.stats()) {
     std::cout << "topic " << t.topic << ": " << t.written << " messages, " << t.bytes << " bytes, " << t.dropped
               << " dropped, " << t.malformed << " malformed\n";
@@ -97,7 +103,10 @@ int main(int argc, char** argv) {
        {"max-seconds", "S", "start a new file after S seconds"},
        {"queue-bytes", "N", "bytes held for the writer before samples are dropped (counted)"},
        {"compression", "zstd|lz4|none", "chunk compression (default zstd)"},
-       {"calibration-from", "INPUT", "copy the LiDAR-IMU extrinsic of a recording into every file"}},
+       {"calibration-from", "INPUT", "copy the LiDAR-IMU extrinsic of a recording into every file"},
+       {"foxglove", "on|off",
+        "also write the Foxglove channels fuse-viz serves (/fuse/pose, /tf, /fuse/scan, /fuse/map, ...), so that "
+        "the recording draws in Foxglove's 3D panel (default on)"}},
       "Exit codes: 0 recorded and closed, 1 runtime failure (output, DDS), 2 usage or config error."};
   if (!service::start_service(cli, argc, argv, args, config, exit_code)) {
     return exit_code;
@@ -106,6 +115,7 @@ int main(int argc, char** argv) {
   std::vector<const record::TopicType*> chosen;
   record::RotationOptions output;
   std::uint64_t queue_bytes = kDefaultQueueBytes;
+  std::optional<record::FoxgloveRecording> foxglove;
   try {
     const record::TopicFilter filter(record::split_patterns(args.get("include")), record::split_patterns(args.get("exclude")));
     std::vector<std::string> known;
@@ -132,6 +142,12 @@ int main(int argc, char** argv) {
       output.calibration = io::open_sensor_source(input)->T_imu_lidar();
       if (!output.calibration) throw std::invalid_argument("--calibration-from '" + input + "' holds no calibration");
     }
+    const std::string draw = args.get("foxglove", "on");
+    if (draw != "on" && draw != "off") throw std::invalid_argument("--foxglove '" + draw + "' must be on or off");
+    if (draw == "on") {
+      foxglove = record::FoxgloveRecording{config.viz, output.calibration.value_or(config.estimator.T_imu_lidar)};
+      output.extra_channels = service::FoxgloveView::channels();
+    }
   } catch (const std::exception& e) {
     log->error("{}", e.what());
     return kExitUsage;
@@ -139,7 +155,7 @@ int main(int argc, char** argv) {
 
   try {
     auto participant = transport::make_participant(config.transport, "fuse-record");
-    record::Recorder recorder(*participant, chosen, output, queue_bytes);
+    record::Recorder recorder(*participant, chosen, output, queue_bytes, foxglove);
     std::string names;
     for (const auto* t : chosen) names += (names.empty() ? "" : " ") + t->topic;
     log->info("recording {} topics: {}", chosen.size(), names);

@@ -4,6 +4,7 @@
 
 #include "fuse/core/logging.hpp"
 #include "fuse/io/time_ns.hpp"
+#include "fuse/transport/msg_traits.hpp"
 
 namespace fuse::record {
 namespace {
@@ -14,8 +15,10 @@ constexpr std::uint64_t kDropLogEvery = 1000;
 }  // namespace
 
 Recorder::Recorder(transport::Participant& participant, std::vector<const TopicType*> topics,
-                   const RotationOptions& output, std::size_t queue_bytes)
-    : topics_(topics), queue_(queue_bytes), writer_(output, topics) {
+                   const RotationOptions& output, std::size_t queue_bytes,
+                   const std::optional<FoxgloveRecording>& foxglove)
+    : topics_(topics), queue_(queue_bytes), writer_(output, topics), foxglove_(foxglove) {
+  if (foxglove_) view_.emplace(foxglove_->viz, foxglove_->T_imu_lidar);
   for (std::size_t i = 0; i < topics_.size(); ++i) counters_.push_back(std::make_unique<Counters>());
   thread_ = std::thread([this] { run(); });
   try {
@@ -124,6 +127,70 @@ void Recorder::put(const QueuedSample& s, std::uint64_t log_time) {
   }
   ++c.written;
   c.bytes += s.data.size();
+  if (view_) draw(s, log_time);
+}
+
+namespace {
+template <class T>
+T decoded(const QueuedSample& s) {
+  T msg;
+  std::string error;
+  if (!transport::deserialize(s.data.data(), s.data.size(), msg, &error)) throw std::runtime_error(error);
+  return msg;
+}
+std::uint64_t ns_of(double seconds) { return static_cast<std::uint64_t>(seconds * 1e9); }
+}  // namespace
+
+void Recorder::write_foxglove(const service::FoxgloveMessage& m, std::uint64_t log_time) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  writer_.write_extra(static_cast<std::size_t>(m.topic) - 1, log_time, m.payload);
+}
+
+void Recorder::draw(const QueuedSample& s, std::uint64_t log_time) {
+  namespace topics = transport::topics;
+  const std::string& topic = topics_[s.topic]->topic;
+  last_log_ns_ = std::max(last_log_ns_, log_time);
+  std::vector<service::FoxgloveMessage> out;
+  try {
+    if (topic == topics::kOdometry) {
+      out = view_->odometry(decoded<fuse_msgs::StateEstimate>(s));
+    } else if (topic == topics::kCorrected) {
+      out.push_back(view_->corrected(decoded<fuse_msgs::StateEstimate>(s)));
+    } else if (topic == topics::kWorldScan) {
+      out.push_back(view_->world_scan(decoded<fuse_msgs::WorldScan>(s)));
+    } else if (topic == topics::kMapChunk) {
+      view_->chunk(decoded<fuse_msgs::MapChunk>(s));
+    } else if (topic == topics::kHealth) {
+      out.push_back(view_->health(decoded<fuse_msgs::Health>(s)));
+    }
+  } catch (const std::exception& e) {
+    // The sample itself is recorded; only its drawing is missing (a pose that is not a rotation).
+    if (++foxglove_skipped_ == 1 || foxglove_skipped_ % kDropLogEvery == 0) {
+      logger("record")->warn("a sample on '{}' has no Foxglove form ({} so far): {}", topic, foxglove_skipped_, e.what());
+    }
+  }
+  if (!static_written_ && anchor_) {
+    // The static transforms once the log has a sensor time (the writer repeats them in every file).
+    write_foxglove(view_->static_transforms(static_cast<double>(log_time) * 1e-9), log_time);
+    static_written_ = true;
+  }
+  for (const auto& m : out) write_foxglove(m, log_time);
+  draw_periodic(log_time, false);
+}
+
+void Recorder::draw_periodic(std::uint64_t log_time, bool final) {
+  if (final || log_time >= next_map_ns_) {
+    if (auto m = view_->map_if_changed()) {
+      write_foxglove(*m, log_time);
+      next_map_ns_ = log_time + ns_of(foxglove_->viz.map_period_s);
+    }
+  }
+  if (final || log_time >= next_trajectory_ns_) {
+    if (auto m = view_->trajectory_if_changed()) {
+      write_foxglove(*m, log_time);
+      next_trajectory_ns_ = log_time + ns_of(foxglove_->viz.trajectory_period_s);
+    }
+  }
 }
 
 void Recorder::run() {
@@ -160,6 +227,13 @@ void Recorder::stop() {
     failed_ = true;
   }
   before_anchor_.clear();
+  try {
+    if (view_ && last_log_ns_ > 0) draw_periodic(last_log_ns_, true);  // the last map and trajectory
+  } catch (const std::exception& e) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    error_ = e.what();
+    failed_ = true;
+  }
   std::lock_guard<std::mutex> lock(mutex_);
   writer_.close();
 }

@@ -4,6 +4,10 @@
 // Log times: imu and lidar/scan carry their own time (IMU t, scan end), as fuse-sim writes them,
 // so fuse-ingest replays the recording in the order the data was taken; every other topic is
 // stamped with the newest such sensor time seen when it was written (one clock per file).
+// With a Foxglove view, the writer thread also turns the recorded odometry, corrected states,
+// deskewed scans, map chunks and health into the Foxglove channels fuse-viz serves
+// (fuse/service/foxglove_view.hpp), written beside them at the same log times, so that the
+// recording draws in Foxglove and Lichtblick with no setup.
 #pragma once
 
 #include <atomic>
@@ -15,6 +19,7 @@
 #include <thread>
 #include <vector>
 
+#include "fuse/service/foxglove_view.hpp"
 #include "fuse/transport/transport.hpp"
 #include "rotating_writer.hpp"
 #include "sample_queue.hpp"
@@ -31,12 +36,19 @@ struct TopicStats {
   std::uint64_t bytes = 0;      ///< bytes written
 };
 
+/// What the Foxglove channels need: frame names and periods (the viz section), the extrinsic.
+struct FoxgloveRecording {
+  service::VizConfig viz;
+  Eigen::Isometry3d T_imu_lidar = Eigen::Isometry3d::Identity();
+};
+
 class Recorder {
  public:
   /// Subscribes to `topics` and starts the writer thread. Throws std::runtime_error when the
   /// output cannot be created or a reader cannot.
+  /// With `foxglove`, output.extra_channels must be FoxgloveView::channels().
   Recorder(transport::Participant& participant, std::vector<const TopicType*> topics, const RotationOptions& output,
-           std::size_t queue_bytes);
+           std::size_t queue_bytes, const std::optional<FoxgloveRecording>& foxglove = std::nullopt);
   ~Recorder();
   /// Stops the readers, writes what is queued, closes the last file. Idempotent.
   void stop();
@@ -56,6 +68,11 @@ class Recorder {
   void write(const QueuedSample& s);
   /// Writes a checked sample at log_time (ns) and counts it.
   void put(const QueuedSample& s, std::uint64_t log_time);
+  /// The sample's Foxglove messages, at its log time; the map and trajectory when due.
+  void draw(const QueuedSample& s, std::uint64_t log_time);
+  /// The map and the trajectory, when changed and (unless `final`) due.
+  void draw_periodic(std::uint64_t log_time, bool final);
+  void write_foxglove(const service::FoxgloveMessage& m, std::uint64_t log_time);
 
   std::vector<const TopicType*> topics_;
   std::vector<std::unique_ptr<Counters>> counters_;
@@ -72,6 +89,11 @@ class Recorder {
   std::atomic<bool> stopping_{false}, failed_{false};
   mutable std::mutex mutex_;  ///< guards error_ and writer_'s file list
   std::string error_;
+  std::optional<service::FoxgloveView> view_;  ///< writer thread only
+  std::optional<FoxgloveRecording> foxglove_;
+  bool static_written_ = false;
+  std::uint64_t next_map_ns_ = 0, next_trajectory_ns_ = 0, last_log_ns_ = 0;
+  std::uint64_t foxglove_skipped_ = 0;
   std::vector<std::unique_ptr<transport::RawReader>> readers_;
   std::thread thread_;
   bool stopped_ = false;

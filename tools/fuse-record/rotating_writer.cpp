@@ -61,6 +61,14 @@ void RotatingWriter::open_next() {
     channels_.push_back(writer_->add_channel(it->second, t->topic, io::kMessageEncoding));
   }
   sequences_.assign(topics_.size(), 0);
+  extra_ids_.clear();
+  for (const foxglove::Channel& c : options_.extra_channels) {
+    const std::uint16_t schema = writer_->add_schema(c.schema_name, c.schema_encoding, c.schema);
+    extra_ids_.push_back(writer_->add_channel(schema, c.topic, c.encoding));
+  }
+  extra_sequences_.assign(extra_ids_.size(), 0);
+  latched_.resize(extra_ids_.size());
+  latched_due_ = !files_.empty();
   if (options_.calibration) {
     const Eigen::Vector3d p = options_.calibration->translation();
     const Eigen::Quaterniond q(options_.calibration->rotation());
@@ -85,15 +93,39 @@ void RotatingWriter::close_current() {
   logger("record")->info("closed {}: {} messages, {} bytes", f.path, f.messages, f.bytes);
 }
 
-void RotatingWriter::write(std::size_t topic, std::uint64_t log_time, const std::uint8_t* data, std::size_t size) {
+void RotatingWriter::before_message(std::uint64_t log_time, std::size_t size) {
   if (!writer_) throw std::logic_error("write after close");
-  if (options_.max_bytes > 0 && files_.back().messages > 0 && files_.back().bytes + size > options_.max_bytes) {
+  const FileSummary& open = files_.back();
+  if (options_.max_bytes > 0 && open.messages + open.extra_messages > 0 && open.bytes + size > options_.max_bytes) {
     close_current();
     open_next();
   }
-  writer_->write_message(channels_.at(topic), sequences_.at(topic)++, log_time, log_time, data, size);
-  ++files_.back().messages;
+  if (!latched_due_) return;
+  latched_due_ = false;
+  for (std::size_t i = 0; i < latched_.size(); ++i) {
+    if (!latched_[i]) continue;
+    const auto* bytes = reinterpret_cast<const std::uint8_t*>(latched_[i]->data());
+    put(extra_ids_[i], extra_sequences_[i], log_time, bytes, latched_[i]->size(), true);
+  }
+}
+
+void RotatingWriter::put(std::uint16_t channel, std::uint32_t& sequence, std::uint64_t log_time,
+                         const std::uint8_t* data, std::size_t size, bool extra) {
+  writer_->write_message(channel, sequence++, log_time, log_time, data, size);
+  ++(extra ? files_.back().extra_messages : files_.back().messages);
   files_.back().bytes += size;
+}
+
+void RotatingWriter::write(std::size_t topic, std::uint64_t log_time, const std::uint8_t* data, std::size_t size) {
+  before_message(log_time, size);
+  put(channels_.at(topic), sequences_.at(topic), log_time, data, size, false);
+}
+
+void RotatingWriter::write_extra(std::size_t channel, std::uint64_t log_time, const std::string& payload) {
+  before_message(log_time, payload.size());
+  const auto* bytes = reinterpret_cast<const std::uint8_t*>(payload.data());
+  put(extra_ids_.at(channel), extra_sequences_.at(channel), log_time, bytes, payload.size(), true);
+  if (options_.extra_channels[channel].latched) latched_[channel] = payload;
 }
 
 void RotatingWriter::rotate_if_due(std::chrono::steady_clock::time_point now) {

@@ -1,5 +1,8 @@
 #include "fuse/io/recording.hpp"
 
+#include <map>
+#include <stdexcept>
+
 #include <spdlog/fmt/fmt.h>
 
 #include "fuse/io/cdr_codec.hpp"
@@ -39,6 +42,7 @@ struct RecordingWriter::Impl {
   McapWriter writer;
   std::uint16_t imu_channel = 0, lidar_channel = 0;
   std::uint32_t imu_sequence = 0, lidar_sequence = 0;
+  std::map<std::uint16_t, std::uint32_t> json_sequences;  ///< per add_json_channel() channel
 };
 
 RecordingWriter::RecordingWriter(const std::string& path, const RecordingWriterConfig& config)
@@ -56,6 +60,21 @@ void RecordingWriter::set_calibration(const Eigen::Isometry3d& T_imu_lidar) {
                                                       {"qy", exact(q.y())},
                                                       {"qz", exact(q.z())},
                                                       {"qw", exact(q.w())}});
+}
+
+std::uint16_t RecordingWriter::add_json_channel(const std::string& topic, const std::string& schema_name,
+                                                const std::string& schema) {
+  const std::uint16_t schema_id = impl_->writer.add_schema(schema_name, "jsonschema", schema);
+  const std::uint16_t channel = impl_->writer.add_channel(schema_id, topic, "json");
+  impl_->json_sequences[channel] = 0;
+  return channel;
+}
+
+void RecordingWriter::write_json(std::uint16_t channel, std::uint64_t log_time, const std::string& json) {
+  const auto it = impl_->json_sequences.find(channel);
+  if (it == impl_->json_sequences.end()) throw std::invalid_argument("write_json: channel " + std::to_string(channel) + " is not a JSON channel");
+  impl_->writer.write_message(channel, it->second++, log_time, log_time, reinterpret_cast<const std::uint8_t*>(json.data()),
+                              json.size());
 }
 
 void RecordingWriter::write(const ImuSample& imu) {

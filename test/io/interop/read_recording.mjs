@@ -88,6 +88,18 @@ async function checkFile(path, decompressHandlers) {
       }
       const schema = reader.schemasById.get(channel.schemaId);
       check(schema !== undefined, `channel ${channel.topic} has a schema`);
+      if (channel.messageEncoding === "json") {
+        // A Foxglove view channel beside the data: JSON with a JSON Schema (test/viz checks them whole).
+        check(schema.encoding === "jsonschema", `${channel.topic}: json messages with a jsonschema schema`);
+        JSON.parse(new TextDecoder().decode(schema.data));
+        for await (const message of reader.readMessages({ topics: [channel.topic] })) {
+          const msg = JSON.parse(new TextDecoder().decode(message.data));
+          check(typeof msg === "object" && msg !== null, `${channel.topic}: a JSON object`);
+          break;
+        }
+        console.log(`${path}: ${channel.topic} (${schema.name}, json) decoded`);
+        continue;
+      }
       check(schema.encoding === "omgidl" && channel.messageEncoding === "cdr", `${channel.topic}: omgidl schema, cdr messages`);
       const definitions = parseIDL(new TextDecoder().decode(schema.data));
       const decoder = new MessageReader(schema.name, definitions);

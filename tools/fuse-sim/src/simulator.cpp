@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -11,6 +12,7 @@
 
 #include "fuse/core/logging.hpp"
 #include "fuse/eval/trajectory.hpp"
+#include "fuse/foxglove/messages.hpp"
 #include "fuse/io/recording.hpp"
 #include "fuse/io/seqdir.hpp"
 #include "fuse/sim/imu_model.hpp"
@@ -24,6 +26,71 @@ namespace {
 constexpr int kYamlPrecision = 12;         // significant digits of doubles in scenario.yaml
 constexpr double kProgressPeriodS = 30.0;  // simulated seconds between progress log lines
 
+constexpr double kTrajectoryPeriodS = 1.0;  // the truth path so far is drawn at most this often
+
+Eigen::Isometry3d isometry(const TrajectoryState& s) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = s.R;
+  T.translation() = s.p;
+  return T;
+}
+
+/// The Foxglove channels of an MCAP output (the names fuse-viz and fuse-record use), here with the
+/// simulator's truth: /tf (world -> imu) and /fuse/pose at every scan end, /tf_static, /fuse/scan
+/// (each point placed in the world by the true pose at its own time: deskewed with the truth) and
+/// /fuse/trajectory (the true path so far), so that the recording draws in Foxglove.
+class FoxgloveChannels {
+ public:
+  FoxgloveChannels(io::RecordingWriter& w, const Eigen::Isometry3d& T_imu_lidar) : w_(w), T_imu_lidar_(T_imu_lidar) {
+    namespace fx = foxglove;
+    const auto add = [&](const char* topic, const fx::JsonSchema& s) { return w_.add_json_channel(topic, s.name, s.text); };
+    pose_ = add(fx::topics::kPose, fx::pose_in_frame_schema());
+    tf_ = add(fx::topics::kTf, fx::frame_transforms_schema());
+    tf_static_ = add(fx::topics::kTfStatic, fx::frame_transforms_schema());
+    scan_ = add(fx::topics::kScan, fx::point_cloud_schema());
+    trajectory_ = add(fx::topics::kTrajectory, fx::poses_in_frame_schema());
+  }
+  void write(const LidarScan& scan, const Trajectory& truth) {
+    namespace fx = foxglove;
+    const std::uint64_t ns = fx::to_nanoseconds(scan.t_end);
+    const Eigen::Isometry3d T_end = isometry(truth.state(scan.t_end));
+    if (!static_written_) {
+      w_.write_json(tf_static_, ns, fx::frame_transforms_json({{scan.t_end, "imu", "lidar", T_imu_lidar_}}));
+      static_written_ = true;
+    }
+    w_.write_json(tf_, ns, fx::frame_transforms_json({{scan.t_end, "world", "imu", T_end}}));
+    w_.write_json(pose_, ns, fx::pose_in_frame_json(scan.t_end, "world", T_end));
+    // Each point by the true pose at its time, interpolated between the scan's start and end.
+    const Eigen::Isometry3d T_start = isometry(truth.state(scan.t_start));
+    const Eigen::Quaterniond q0(T_start.linear()), q1(T_end.linear());
+    const double span = std::max(scan.t_end - scan.t_start, 1e-9);
+    std::vector<float> xyz;
+    xyz.reserve(3 * scan.points.size());
+    for (const LidarPoint& p : scan.points) {
+      const double a = std::clamp(static_cast<double>(p.t_rel) / span, 0.0, 1.0);
+      Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+      T.linear() = q0.slerp(a, q1).toRotationMatrix();
+      T.translation() = (1.0 - a) * T_start.translation() + a * T_end.translation();
+      const Eigen::Vector3d w = T * T_imu_lidar_ * Eigen::Vector3d(p.x, p.y, p.z);
+      xyz.insert(xyz.end(), {static_cast<float>(w.x()), static_cast<float>(w.y()), static_cast<float>(w.z())});
+    }
+    w_.write_json(scan_, ns, fx::point_cloud_json(scan.t_end, "world", xyz));
+    path_.push_back(T_end);
+    if (scan.t_end >= next_trajectory_t_) {
+      w_.write_json(trajectory_, ns, fx::poses_in_frame_json(scan.t_end, "world", path_));
+      next_trajectory_t_ = scan.t_end + kTrajectoryPeriodS;
+    }
+  }
+
+ private:
+  io::RecordingWriter& w_;
+  Eigen::Isometry3d T_imu_lidar_;
+  std::uint16_t pose_ = 0, tf_ = 0, tf_static_ = 0, scan_ = 0, trajectory_ = 0;
+  bool static_written_ = false;
+  std::vector<Eigen::Isometry3d> path_;
+  double next_trajectory_t_ = 0.0;
+};
+
 // Either output format behind one interface.
 class Output {
  public:
@@ -31,12 +98,17 @@ class Output {
     if (o.format == OutputFormat::kMcap) {
       mcap_ = std::make_unique<io::RecordingWriter>((std::filesystem::path(o.out_dir) / "recording.mcap").string());
       mcap_->set_calibration(T_imu_lidar);
+      foxglove_ = std::make_unique<FoxgloveChannels>(*mcap_, T_imu_lidar);
     } else {
       seqdir_ = std::make_unique<io::SeqdirWriter>(o.out_dir, T_imu_lidar);
     }
   }
   void write(const ImuSample& s) { mcap_ ? mcap_->write(s) : seqdir_->write(s); }
-  void write(const LidarScan& s) { mcap_ ? mcap_->write(s) : seqdir_->write(s); }
+  void write(const LidarScan& s, const Trajectory& truth) {
+    if (!mcap_) return seqdir_->write(s);
+    mcap_->write(s);
+    foxglove_->write(s, truth);
+  }
   void close(const std::vector<StampedPose>& scan_end_poses) {
     if (mcap_) {
       mcap_->close();
@@ -48,6 +120,7 @@ class Output {
 
  private:
   std::unique_ptr<io::RecordingWriter> mcap_;
+  std::unique_ptr<FoxgloveChannels> foxglove_;
   std::unique_ptr<io::SeqdirWriter> seqdir_;
 };
 
@@ -218,7 +291,7 @@ SimSummary run_simulation(const SimOptions& o) {
     write_imu_until((k + 1) * static_cast<std::size_t>(imu_per_scan));  // IMU up to the scan end first
     const LidarScan scan = lidar_sim.scan(k, tr.t_begin());
     points += scan.points.size();
-    output.write(scan);
+    output.write(scan, tr);
     scan_ends.push_back(to_pose(tr.state(scan.t_end)));
     if (scan.t_end - tr.t_begin() >= next_progress) {
       log->info("simulated {:.0f} / {:.0f} s ({:.1f} s wall)", scan.t_end - tr.t_begin(), duration,

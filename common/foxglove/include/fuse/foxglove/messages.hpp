@@ -11,6 +11,18 @@
 
 namespace fuse::foxglove {
 
+/// The Foxglove channel names FUSE writes: fuse-viz (live), fuse-record and fuse-sim (files).
+namespace topics {
+inline constexpr const char* kPose = "/fuse/pose";              ///< PoseInFrame, IMU rate
+inline constexpr const char* kPoseScan = "/fuse/pose_scan";     ///< PoseInFrame, scan rate
+inline constexpr const char* kTf = "/tf";                       ///< FrameTransforms world -> imu
+inline constexpr const char* kTfStatic = "/tf_static";          ///< FrameTransforms imu -> lidar
+inline constexpr const char* kScan = "/fuse/scan";              ///< PointCloud
+inline constexpr const char* kMap = "/fuse/map";                ///< PointCloud, whole
+inline constexpr const char* kTrajectory = "/fuse/trajectory";  ///< PosesInFrame
+inline constexpr const char* kHealth = "/fuse/health";          ///< fuse.Health
+}  // namespace topics
+
 /// The schema name and its JSON Schema text, as a channel advertises them.
 struct JsonSchema {
   std::string name;

@@ -36,6 +36,11 @@ class RecordingWriter {
   RecordingWriter& operator=(const RecordingWriter&) = delete;
 
   void set_calibration(const Eigen::Isometry3d& T_imu_lidar);
+  /// Another channel beside imu and lidar/scan: JSON messages with a JSON Schema (schema
+  /// encoding jsonschema, message encoding json), e.g. the Foxglove channels. Returns its id.
+  std::uint16_t add_json_channel(const std::string& topic, const std::string& schema_name, const std::string& schema);
+  /// One message of a channel from add_json_channel(), at log_time (ns).
+  void write_json(std::uint16_t channel, std::uint64_t log_time, const std::string& json);
   void write(const ImuSample& imu);
   void write(const LidarScan& scan);  ///< log time = scan end time (arrival)
   void close();
