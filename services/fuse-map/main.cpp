@@ -46,8 +46,13 @@ int main(int argc, char** argv) {
   try {
     auto participant = transport::make_participant(config.transport, "fuse-map");
     config.map_server.system_name = config.transport.system_name;
-    map_service::MapService map(config.map_server, *participant);
+    std::shared_ptr<service::Ros2Output> ros2;
+    if (config.ros2.enabled) {
+      ros2 = std::make_shared<service::Ros2Output>(*participant, config.ros2, service::Ros2Output::Outputs{false, false, true});
+    }
+    map_service::MapService map(config.map_server, *participant, ros2, config.ros2.map_period_s);
     service::HealthReporter health(*participant, "fuse-map", config.health.period_s, config.health.instance_window_s, [&] { return map.health(); });
+    if (ros2) health.also_publish([&ros2](const fuse_msgs::Health& h) { ros2->diagnostics(h); });
     // Start-up complete (map loaded, endpoints created): READY; then the watchdog while the
     // worker that journals and applies observations keeps making progress.
     service::Notifier& notify = service::notifier();

@@ -69,8 +69,11 @@ const char* refusal_reason(const fuse_msgs::MapObservation& o) {
   return nullptr;
 }
 
-MapService::MapService(const MapServerConfig& config, transport::Participant& participant)
+MapService::MapService(const MapServerConfig& config, transport::Participant& participant,
+                       std::shared_ptr<service::Ros2Output> ros2, double ros2_period_s)
     : core_(std::make_unique<MapServerCore>(config)),
+      ros2_(std::move(ros2)),
+      ros2_period_(ros2_period_s),
       saved_maps_(config.saved_maps()),
       chunks_(participant, transport::topics::kMapChunk),
       status_(participant, transport::topics::kMapStatus),
@@ -214,6 +217,7 @@ void MapService::run() {
         job.control();
       }
       retry_if_due();
+      publish_ros2_map_if_due();
     } catch (const std::exception& e) {
       // Not a write failure (the core keeps those pending): e.g. a chunk that failed to encode.
       set_error(std::string("worker: ") + e.what());
@@ -245,6 +249,19 @@ void MapService::retry_if_due() {
   publish_status();
 }
 
+void MapService::publish_ros2_map_if_due() {
+  if (!ros2_ || !ros2_map_changed_ || std::chrono::steady_clock::now() < ros2_next_map_) return;
+  std::vector<float> xyz;
+  xyz.reserve(3 * core_->map().num_points());
+  core_->map().for_each_chunk([&](const PointChunk& c) {
+    for (const Eigen::Vector3f& p : c.points) xyz.insert(xyz.end(), {p.x(), p.y(), p.z()});
+  });
+  ros2_->map(last_observation_t_, xyz);
+  ros2_map_changed_ = false;
+  ros2_next_map_ = std::chrono::steady_clock::now() +
+                   std::chrono::duration_cast<std::chrono::steady_clock::duration>(ros2_period_);
+}
+
 void MapService::handle_observation(const fuse_msgs::MapObservation& o) {
   if (const char* reason = refusal_reason(o)) {
     count("observations_refused");
@@ -252,6 +269,7 @@ void MapService::handle_observation(const fuse_msgs::MapObservation& o) {
                        std::to_string(o.sequence_number()) + " refused: " + reason);
     return;
   }
+  if (std::isfinite(o.t())) last_observation_t_ = std::max(last_observation_t_, o.t());
 
   std::vector<Eigen::Vector3f> points;
   points.reserve(o.points().size());
@@ -472,6 +490,7 @@ void MapService::publish_chunk(const PointChunk& chunk) {
     m.points()[i].z(chunk.points[i].z());
   }
   count(chunks_.publish(m) ? "chunks_published" : "chunk_publish_failures");
+  ros2_map_changed_ = true;
 }
 
 void MapService::publish_all_chunks() {

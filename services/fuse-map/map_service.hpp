@@ -36,6 +36,7 @@
 #include "fuse/core/counters.hpp"
 #include "fuse/map/map_server_core.hpp"
 #include "fuse/service/health.hpp"
+#include "fuse/service/ros2_output.hpp"
 #include "fuse/transport/rpc.hpp"
 
 namespace fuse::map_service {
@@ -55,7 +56,10 @@ class MapService {
   /// status, then starts serving; degraded when the directory cannot be written. Throws
   /// MapDirectoryLocked when another fuse-map holds the directory, MapStorageError when its
   /// files cannot be read, ConfigError on a bad config.
-  MapService(const MapServerConfig& config, transport::Participant& participant);
+  /// With `ros2`, the whole map also goes out as a ROS 2 PointCloud2 when it changed, at most
+  /// every `ros2_period_s`.
+  MapService(const MapServerConfig& config, transport::Participant& participant,
+             std::shared_ptr<service::Ros2Output> ros2 = nullptr, double ros2_period_s = 0.0);
   ~MapService();
   MapService(const MapService&) = delete;
   MapService& operator=(const MapService&) = delete;
@@ -100,6 +104,8 @@ class MapService {
   void load_map(const std::string& name, bool other_system, fuse_msgs::MapControlReply& reply);
   void publish_chunk(const PointChunk& chunk);
   void publish_all_chunks();
+  /// The whole map on ROS 2 when it changed and its period has passed (worker thread).
+  void publish_ros2_map_if_due();
   void publish_status();
   /// While degraded, calls the core's retry() when it is due; publishes what it journaled.
   void retry_if_due();
@@ -114,6 +120,11 @@ class MapService {
   void set_error(const std::string& error);
 
   std::unique_ptr<MapServerCore> core_;  ///< worker thread only (and the constructor)
+  std::shared_ptr<service::Ros2Output> ros2_;
+  std::chrono::duration<double> ros2_period_{0.0};
+  bool ros2_map_changed_ = false;                           ///< worker thread
+  std::chrono::steady_clock::time_point ros2_next_map_{};  ///< worker thread
+  double last_observation_t_ = 0.0;                        ///< worker thread: the ROS 2 map's stamp
   std::filesystem::path saved_maps_;     ///< where save NAME and load NAME resolve (map_names.hpp)
   /// Worker thread: when the next retry() is due while degraded (unset: not degraded).
   std::optional<std::chrono::steady_clock::time_point> retry_at_;

@@ -109,6 +109,11 @@ StateService::StateService(const SystemConfig& config, transport::Participant& p
       transport::Dispatch::kInline);
   health_ = std::make_unique<HealthReporter>(participant, kName, config.health.period_s, config.health.instance_window_s, [this] { return health(); });
   instances_ = health_.get();
+  if (config.ros2.enabled) {
+    ros2_ = std::make_unique<Ros2Output>(participant, config.ros2, Ros2Output::Outputs{true, false, false});
+    ros2_->static_transform(config.estimator.T_imu_lidar);
+    health_->also_publish([this](const fuse_msgs::Health& h) { ros2_->diagnostics(h); });
+  }
 }
 
 StateService::~StateService() {
@@ -179,7 +184,17 @@ void StateService::on_imu(const fuse_msgs::ImuSample& msg) {
     }
     if (live_) odometry = feed(imu);
   }
-  if (odometry) odometry_.publish(*odometry);
+  if (odometry) {
+    odometry_.publish(*odometry);
+    if (ros2_) {
+      try {
+        ros2_->odometry(*odometry);
+      } catch (const std::exception& e) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        counters_.count("ros2_not_published", std::string("odometry not published for ROS 2: ") + e.what());
+      }
+    }
+  }
 }
 
 bool StateService::catching_up() const {

@@ -41,6 +41,7 @@
 #include <string>
 
 #include "fuse/core/host_clock.hpp"
+#include "fuse/service/ros2_output.hpp"
 #include "fuse/estimation/state_tracker.hpp"
 #include "fuse/service/convert.hpp"
 #include "fuse/service/health.hpp"
@@ -126,6 +127,7 @@ class StateService {
   std::vector<std::pair<double, Eigen::Isometry3d>> held_poses_;  ///< T_world_imu, until the frame is the map's
 
   transport::Publisher<fuse_msgs::StateEstimate> odometry_;
+  std::unique_ptr<Ros2Output> ros2_;  ///< ros2.enabled: odometry and transforms for ROS 2 as well
   transport::Publisher<fuse_msgs::StateEstimate> corrected_;
   std::unique_ptr<transport::Subscriber<fuse_msgs::ImuSample>> imu_sub_;
   std::unique_ptr<transport::Subscriber<fuse_msgs::Correction>> correction_sub_;

@@ -58,6 +58,10 @@ UpdateService::UpdateService(const SystemConfig& config, transport::Participant&
       [this](const fuse_msgs::SetPoseRequest& req, fuse_msgs::SetPoseReply& rep) { on_set_pose(req, rep); },
       transport::Dispatch::kWorker);  // waits for the verdict
   health_ = std::make_unique<HealthReporter>(participant, kName, config.health.period_s, config.health.instance_window_s, [this] { return health(); });
+  if (config.ros2.enabled) {
+    ros2_ = std::make_unique<Ros2Output>(participant, config.ros2, Ros2Output::Outputs{false, true, false});
+    health_->also_publish([this](const fuse_msgs::Health& h) { ros2_->diagnostics(h); });
+  }
   logger(kName)->info("session {:016x}", session_);
 }
 
@@ -462,7 +466,8 @@ UpdateService::Outcome UpdateService::process(LidarScan& scan) {
 
 void UpdateService::publish_world_scan(const LidarScan& scan) {
   const std::vector<Eigen::Vector3f>& points = updater_.last_scan_points();
-  if (points.empty() || world_scans_.matched() == 0) return;  // for viewers: without one, no work
+  const bool fuse_viewer = world_scans_.matched() > 0, ros2_viewer = ros2_ && ros2_->scan_wanted();
+  if (points.empty() || (!fuse_viewer && !ros2_viewer)) return;  // for viewers: without one, no work
   fuse_msgs::WorldScan m;
   m.t(scan.t_end);
   m.scan_sequence(scan.sequence);
@@ -477,7 +482,13 @@ void UpdateService::publish_world_scan(const LidarScan& scan) {
     m.points()[i].y(w.y());
     m.points()[i].z(w.z());
   }
-  world_scans_.publish(m);
+  if (fuse_viewer) world_scans_.publish(m);
+  if (ros2_viewer) {
+    std::vector<float> xyz;
+    xyz.reserve(3 * m.points().size());
+    for (const fuse_msgs::Point3f& p3 : m.points()) xyz.insert(xyz.end(), {p3.x(), p3.y(), p3.z()});
+    ros2_->scan(scan.t_end, xyz);
+  }
 }
 
 void UpdateService::offer_to_map(double t) {

@@ -32,6 +32,7 @@
 #include "fuse/estimation/tracking_monitor.hpp"
 #include "fuse/service/convert.hpp"
 #include "fuse/service/health.hpp"
+#include "fuse/service/ros2_output.hpp"
 #include "fuse/service/scan_backlog.hpp"
 #include "fuse/service/system_config.hpp"
 #include "frame_localizer.hpp"
@@ -127,6 +128,7 @@ class UpdateService {
   transport::Publisher<fuse_msgs::Correction> corrections_;
   transport::Publisher<fuse_msgs::MapObservation> observations_;
   transport::Publisher<fuse_msgs::WorldScan> world_scans_;
+  std::unique_ptr<Ros2Output> ros2_;  ///< ros2.enabled: the deskewed scan for ROS 2 as well
   transport::RpcClient<fuse_msgs::HistoryRequest, fuse_msgs::HistoryReply> history_;
   std::unique_ptr<transport::Subscriber<fuse_msgs::MapChunk>> chunk_sub_;
   std::unique_ptr<transport::Subscriber<fuse_msgs::MapStatus>> status_sub_;

@@ -19,7 +19,7 @@ namespace fuse {
 void RunnerConfig::load(ConfigNode& root) {
   load_section(root, "estimator", estimator);
   // One config file serves fuse-run and the services: their sections are theirs to validate.
-  for (const char* service_section : {"transport", "ingest", "state", "update", "map_server", "scheduling", "health", "viz"}) {
+  for (const char* service_section : {"transport", "ingest", "state", "update", "map_server", "scheduling", "health", "viz", "ros2"}) {
     root.child(service_section);
   }
   root.finish();

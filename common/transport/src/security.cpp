@@ -81,22 +81,25 @@ const std::vector<std::string>& roles() {
 
 Grant role_grant(const std::string& role) {
   using namespace topics;
+  // ROS 2's topics ("rt/" + the ROS name, fuse/transport/ros2.hpp): what a service publishes for
+  // ROS 2 (ros2.enabled) and what fuse-ingest --ros2 reads; the names are config, so a pattern.
+  const std::string ros2_topics = "rt/*";
   Grant g;
   if (role == "ingest") {
     g.publish = {kImu, kLidarScan, kHealth};
-    g.subscribe = {kCorrection, kHealth};
+    g.subscribe = {kCorrection, kHealth, ros2_topics};
   } else if (role == "state") {
-    g.publish = {kOdometry, kCorrected, kHealth};
+    g.publish = {kOdometry, kCorrected, kHealth, ros2_topics};
     g.subscribe = {kImu, kCorrection, kHealth};
     add_server(g, services::kQuery);
     add_server(g, services::kHistory);
   } else if (role == "update") {
-    g.publish = {kCorrection, kObservation, kWorldScan, kHealth};
+    g.publish = {kCorrection, kObservation, kWorldScan, kHealth, ros2_topics};
     g.subscribe = {kLidarScan, kCorrected, kMapChunk, kMapStatus, kHealth};
     add_client(g, services::kHistory);
     add_server(g, services::kSetPose);
   } else if (role == "map") {
-    g.publish = {kMapChunk, kMapStatus, kHealth};
+    g.publish = {kMapChunk, kMapStatus, kHealth, ros2_topics};
     g.subscribe = {kObservation, kHealth};
     add_server(g, services::kMapControl);
   } else if (role == "planner") {

@@ -70,6 +70,13 @@ void HealthReporter::publish_now() {
   }
   m.last_error(s.last_error.substr(0, 256));
   publisher_.publish(m);
+  std::lock_guard<std::mutex> lock(sink_mutex_);
+  if (sink_) sink_(m);
+}
+
+void HealthReporter::also_publish(std::function<void(const fuse_msgs::Health&)> sink) {
+  std::lock_guard<std::mutex> lock(sink_mutex_);
+  sink_ = std::move(sink);
 }
 
 void HealthReporter::run() {

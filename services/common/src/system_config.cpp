@@ -1,5 +1,7 @@
 #include "fuse/service/system_config.hpp"
 
+#include "fuse/transport/ros2.hpp"
+
 #include <cmath>
 
 #include "fuse/core/cpu_latency.hpp"
@@ -87,6 +89,35 @@ void VizConfig::load(ConfigNode& node) {
   node.finish();
 }
 
+void Ros2Config::load(ConfigNode& node) {
+  node.get("enabled", enabled).get("odometry_topic", odometry_topic).get("tf_topic", tf_topic);
+  node.get("tf_static_topic", tf_static_topic).get("scan_topic", scan_topic).get("map_topic", map_topic);
+  node.get("diagnostics_topic", diagnostics_topic).get("world_frame", world_frame).get("imu_frame", imu_frame);
+  node.get("lidar_frame", lidar_frame).get("map_period_s", map_period_s);
+  for (const auto& [key, topic] : {std::pair<const char*, const std::string*>{"odometry_topic", &odometry_topic},
+                                   {"tf_topic", &tf_topic},
+                                   {"tf_static_topic", &tf_static_topic},
+                                   {"scan_topic", &scan_topic},
+                                   {"map_topic", &map_topic},
+                                   {"diagnostics_topic", &diagnostics_topic}}) {
+    std::string why;
+    try {
+      transport::ros2::dds_topic(*topic);
+    } catch (const std::invalid_argument& e) {
+      why = e.what();
+    }
+    node.check(why.empty(), key, why);
+  }
+  for (const auto& [key, frame] : {std::pair<const char*, const std::string*>{"world_frame", &world_frame},
+                                   {"imu_frame", &imu_frame},
+                                   {"lidar_frame", &lidar_frame}}) {
+    node.check(!frame->empty() && frame->size() <= 64, key, "must be a name of 1 to 64 characters");
+  }
+  node.check(std::isfinite(map_period_s) && map_period_s >= 0.1 && map_period_s <= 600.0, "map_period_s",
+             "must be in [0.1, 600] s");
+  node.finish();
+}
+
 int SchedulingConfig::slice_us(const std::string& service) const {
   if (service == "fuse-ingest") return ingest_slice_us;
   if (service == "fuse-state") return state_slice_us;
@@ -128,6 +159,7 @@ void SystemConfig::load(ConfigNode& root) {
   load_section(root, "scheduling", scheduling);
   load_section(root, "health", health);
   load_section(root, "viz", viz);
+  load_section(root, "ros2", ros2);
   root.finish();
 }
 

@@ -38,6 +38,8 @@ class HealthReporter {
   ~HealthReporter();
   /// Publishes one heartbeat now (e.g. on stopping).
   void publish_now();
+  /// Also hands every heartbeat to `sink` after publishing it (e.g. as ROS 2 diagnostics). Thread-safe.
+  void also_publish(std::function<void(const fuse_msgs::Health&)> sink);
   /// Why more than one instance of `service` is alive now (empty: at most one is). Thread-safe.
   std::string duplicate(const std::string& service) const;
 
@@ -56,6 +58,8 @@ class HealthReporter {
   InstanceWatch watch_;        ///< watch_mutex_
   std::atomic<bool> reported_duplicate_{false};  ///< the duplicate was logged
   std::unique_ptr<transport::Subscriber<fuse_msgs::Health>> subscriber_;
+  std::mutex sink_mutex_;
+  std::function<void(const fuse_msgs::Health&)> sink_;  ///< sink_mutex_
   std::mutex mutex_;
   std::condition_variable cv_;
   bool stop_ = false;

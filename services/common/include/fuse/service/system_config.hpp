@@ -122,6 +122,23 @@ struct VizConfig {
   void load(ConfigNode& node);
 };
 
+/// ROS 2 output (docs/architecture.md, "ROS 2"): the services also publish ROS 2 types under
+/// ROS 2 naming on the same DDS domain, for ROS 2 nodes to subscribe to without a bridge.
+struct Ros2Config {
+  bool enabled = false;
+  std::string odometry_topic = "/fuse/odometry";  ///< nav_msgs/Odometry at IMU rate (fuse-state)
+  std::string tf_topic = "/tf";                   ///< world -> imu at IMU rate (fuse-state)
+  std::string tf_static_topic = "/tf_static";     ///< imu -> lidar, transient local (fuse-state)
+  std::string scan_topic = "/fuse/cloud_registered";  ///< deskewed scan, world frame (fuse-update)
+  std::string map_topic = "/fuse/map";            ///< the whole map, transient local (fuse-map)
+  std::string diagnostics_topic = "/diagnostics"; ///< each service's health
+  std::string world_frame = "world";
+  std::string imu_frame = "imu";
+  std::string lidar_frame = "lidar";
+  double map_period_s = 2.0;  ///< the map at most this often, when it changed
+  void load(ConfigNode& node);
+};
+
 struct SystemConfig {
   EstimatorConfig estimator;
   transport::TransportConfig transport;
@@ -132,6 +149,7 @@ struct SystemConfig {
   SchedulingConfig scheduling;
   HealthConfig health;
   VizConfig viz;
+  Ros2Config ros2;
   void load(ConfigNode& root);
 };
 

@@ -1,0 +1,49 @@
+// A service's ROS 2 output (ros2.enabled; docs/architecture.md, "ROS 2"): writers of ROS 2 types
+// on ROS 2 topics (fuse/transport/ros2.hpp), each created only for what this service publishes.
+//   fuse-state:  odometry (nav_msgs/Odometry, IMU rate, sensor-data QoS), /tf world -> imu,
+//                /tf_static imu -> lidar (transient local)
+//   fuse-update: the deskewed scan (sensor_msgs/PointCloud2, world frame, sensor-data QoS)
+//   fuse-map:    the whole map (PointCloud2, transient local, at most every ros2.map_period_s)
+//   every one:   its health as diagnostic_msgs/DiagnosticArray on /diagnostics
+// Thread-safe: each writer is used under its own call.
+#pragma once
+
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "fuse/service/system_config.hpp"
+#include "fuse/transport/msg_traits.hpp"
+
+namespace fuse::service {
+
+class Ros2Output {
+ public:
+  struct Outputs {
+    bool odometry = false;  ///< odometry, /tf, /tf_static
+    bool scan = false;
+    bool map = false;
+  };
+  Ros2Output(transport::Participant& participant, const Ros2Config& config, Outputs outputs);
+
+  /// Odometry and /tf from an odometry sample (twist in the IMU frame). Throws InvalidSample.
+  void odometry(const fuse_msgs::StateEstimate& s);
+  /// /tf_static: imu -> lidar (latched for late subscribers).
+  void static_transform(const Eigen::Isometry3d& T_imu_lidar);
+  /// Whether a ROS 2 subscriber of the scan is matched (the caller may skip building it).
+  bool scan_wanted() const;
+  void scan(double t, const std::vector<float>& xyz_world);
+  void map(double t, const std::vector<float>& xyz_world);
+  /// A heartbeat as one DiagnosticStatus (running OK, starting and stopping OK with their word,
+  /// degraded WARN, anything else ERROR; the counters as key/values), stamped with the host's
+  /// UTC time (a heartbeat has no sensor time).
+  void diagnostics(const fuse_msgs::Health& h);
+
+ private:
+  Ros2Config config_;
+  std::unique_ptr<transport::RawWriter> odometry_, tf_, tf_static_, scan_, map_, diagnostics_;
+  std::mutex mutex_;
+};
+
+}  // namespace fuse::service
