@@ -11,6 +11,8 @@ namespace fuse::service {
 
 namespace {
 
+constexpr double kStandardGravity = 9.80665;  // m/s^2 per g, for drivers that write g
+
 std::uint16_t port(const std::string& text, const std::string& option) {
   std::size_t used = 0;
   unsigned long v = 0;
@@ -51,9 +53,32 @@ bool ends_with(const std::string& s, const std::string& suffix) {
 IngestInput parse_ingest_input(const ServiceArgs& args) {
   IngestInput in;
   const std::string input = args.get("input"), ouster_udp = args.get("ouster-udp"), livox_udp = args.get("livox-udp");
+  const std::string ros2 = args.get("ros2");
   in.ouster_metadata = args.get("ouster-metadata");
-  const int given = !input.empty() + !ouster_udp.empty() + !livox_udp.empty();
-  if (given != 1) throw std::invalid_argument("give exactly one of --input, --ouster-udp, --livox-udp");
+  const int given = !input.empty() + !ouster_udp.empty() + !livox_udp.empty() + !ros2.empty();
+  if (given != 1) throw std::invalid_argument("give exactly one of --input, --ouster-udp, --livox-udp, --ros2");
+  const bool ros2_options = !args.get("ros2-lidar-type").empty() || !args.get("time-field").empty() ||
+                            !args.get("imu-accel-unit").empty() || !args.get("ros2-reliability").empty();
+  if (ros2_options && ros2.empty()) {
+    throw std::invalid_argument("--ros2-lidar-type, --time-field, --imu-accel-unit and --ros2-reliability go with --ros2");
+  }
+  if (!ros2.empty()) {
+    if (!in.ouster_metadata.empty()) throw std::invalid_argument("--ouster-metadata does not go with --ros2");
+    in.kind = IngestInput::Kind::kRos2;
+    parse_ros2_topics(ros2, in.ros2);
+    in.ros2.lidar_type = args.get("ros2-lidar-type", "pointcloud2");
+    in.ros2.time_field = args.get("time-field");
+    const std::string unit = args.get("imu-accel-unit", "mps2");
+    if (unit != "mps2" && unit != "g") throw std::invalid_argument("--imu-accel-unit '" + unit + "': mps2 or g");
+    in.ros2.accel_scale = unit == "g" ? kStandardGravity : 1.0;
+    const std::string reliability = args.get("ros2-reliability", "best_effort");
+    if (reliability != "best_effort" && reliability != "reliable") {
+      throw std::invalid_argument("--ros2-reliability '" + reliability + "': best_effort or reliable");
+    }
+    in.ros2.reliable = reliability == "reliable";
+    in.ros2.validate();
+    return in;
+  }
   if (!input.empty()) {
     in.path = input;
     if (ends_with(input, ".bag")) {
@@ -78,8 +103,15 @@ IngestInput parse_ingest_input(const ServiceArgs& args) {
   return in;
 }
 
-std::unique_ptr<io::SensorSource> open_ingest_input(const IngestInput& in, const TimeGateConfig& clock) {
+std::unique_ptr<io::SensorSource> open_ingest_input(const IngestInput& in, const TimeGateConfig& clock,
+                                                    transport::Participant* participant) {
   switch (in.kind) {
+    case IngestInput::Kind::kRos2: {
+      if (participant == nullptr) throw std::logic_error("--ros2 needs the service's DDS participant");
+      Ros2InputConfig c = in.ros2;
+      c.should_stop = [] { return stop_requested(); };
+      return std::make_unique<Ros2Source>(*participant, c, clock);
+    }
     case IngestInput::Kind::kOusterPcap:
       return std::make_unique<io::OusterPcapSource>(io::OusterPcapConfig{in.path, in.ouster_metadata, {}, {}});
     case IngestInput::Kind::kOusterBag:

@@ -25,7 +25,7 @@ double unix_now() {
 IngestService::IngestService(const SystemConfig& config, transport::Participant& participant, IngestOptions options)
     : config_(config),
       options_(std::move(options)),
-      source_(std::make_unique<io::PrefetchSource>(open_source(), static_cast<std::size_t>(config.ingest.prefetch_events))),
+      source_(std::make_unique<io::PrefetchSource>(open_source(participant), static_cast<std::size_t>(config.ingest.prefetch_events))),
       counters_(logger(kName)),
       imu_(participant, transport::topics::kImu, config.ingest.held_imu),
       scans_(participant, transport::topics::kLidarScan, config.ingest.held_scans) {
@@ -58,8 +58,8 @@ bool IngestService::resuming() const {
          *options_.start_wall < unix_now();
 }
 
-std::unique_ptr<io::SensorSource> IngestService::open_source() {
-  std::unique_ptr<io::SensorSource> source = open_ingest_input(options_.input, config_.estimator.clock);
+std::unique_ptr<io::SensorSource> IngestService::open_source(transport::Participant& participant) {
+  std::unique_ptr<io::SensorSource> source = open_ingest_input(options_.input, config_.estimator.clock, &participant);
   if (!resuming()) return source;
   // Joining a schedule that has run for a while: read the first event (the schedule's origin),
   // then jump to where the schedule is now. Reading and dropping everything before took seconds

@@ -56,7 +56,7 @@ class IngestService {
   /// A real-time replay restarted after its --start-wall: positions the source where the
   /// schedule is now (seeking, when the format can, instead of reading the past), notes the
   /// recording's first time and keeps the first event read when it cannot seek.
-  std::unique_ptr<io::SensorSource> open_source();
+  std::unique_ptr<io::SensorSource> open_source(transport::Participant& participant);
   bool resuming() const;
 
   SystemConfig config_;

@@ -15,11 +15,21 @@ int main(int argc, char** argv) {
   const ServiceCli cli{
       "fuse-ingest",
       "Sensor input of FUSE-SLAM: publishes the IMU and LiDAR of a live sensor (Livox Mid-360 or Ouster over "
-      "UDP) or of a replay (MCAP recording, sequence directory, Ouster pcap or bag) on DDS.",
+      "UDP, or a ROS 2 driver's topics) or of a replay (MCAP recording, sequence directory, Ouster pcap or bag) on "
+      "DDS.",
       {{"input", "RECORDING", "replay a recording, a sequence directory, an Ouster .pcap or bag"},
        {"ouster-metadata", "FILE.json", "the Ouster sensor's metadata (with a .pcap, bag or --ouster-udp)"},
        {"ouster-udp", "ADDRESS[:LIDAR_PORT:IMU_PORT]", "a live Ouster sensor"},
        {"livox-udp", "ADDRESS[:POINT_PORT:IMU_PORT]", "a live Livox sensor, e.g. 0.0.0.0:56301:56401"},
+       {"ros2", "IMU_TOPIC,LIDAR_TOPIC",
+        "a ROS 2 driver's topics on the same DDS domain (sensor_msgs/Imu and sensor_msgs/PointCloud2 or "
+        "livox_ros_driver2/CustomMsg), e.g. /livox/imu,/livox/lidar"},
+       {"ros2-lidar-type", "pointcloud2|livox", "with --ros2: the LiDAR topic's type (default pointcloud2)"},
+       {"time-field", "F", "with --ros2: the PointCloud2 per-point time field (t, time, timestamp, offset_time; "
+                           "default: the first present)"},
+       {"imu-accel-unit", "mps2|g", "with --ros2: the unit of the IMU's acceleration (default mps2)"},
+       {"ros2-reliability", "best_effort|reliable",
+        "with --ros2: best_effort (default) matches best-effort and reliable drivers; reliable only reliable ones"},
        {"mode", "lockstep|realtime", "replay pace (default ingest.mode)"},
        {"rate", "R", "replay speed factor in (0, 100] (default ingest.rate)"},
        {"start-wall", "UNIX_S", "real-time replay: the wall-clock time of the recording's start"}},
@@ -33,7 +43,9 @@ int main(int argc, char** argv) {
   constexpr const char* kUsage =
       "usage: fuse-ingest --config FILE (--input RECORDING|SEQDIR | --input FILE.pcap --ouster-metadata FILE.json | "
       "--input OUSTER.bag [--ouster-metadata FILE.json] | "
-      "--ouster-udp ADDRESS[:LIDAR_PORT:IMU_PORT] --ouster-metadata FILE.json | --livox-udp ADDRESS[:POINT_PORT:IMU_PORT]) "
+      "--ouster-udp ADDRESS[:LIDAR_PORT:IMU_PORT] --ouster-metadata FILE.json | --livox-udp ADDRESS[:POINT_PORT:IMU_PORT] | "
+      "--ros2 IMU_TOPIC,LIDAR_TOPIC [--ros2-lidar-type pointcloud2|livox] [--time-field F] [--imu-accel-unit mps2|g] "
+      "[--ros2-reliability best_effort|reliable]) "
       "[--mode lockstep|realtime] [--rate R in (0,100]] [--start-wall UNIX_S]";
   try {
     options.input = parse_ingest_input(args);

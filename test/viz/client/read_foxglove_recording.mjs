@@ -1,7 +1,8 @@
 // Reads the Foxglove channels of FUSE recordings (fuse-sim's recording.mcap, fuse-record's files)
 // with the reference MCAP reader (@mcap/core) and only the schemas embedded in the file: every
-// message of every JSON channel is validated against its channel's JSON Schema (Ajv) and the
-// fields the schema marks base64 are decoded. Prints one JSON summary per file and checks:
+// message of every JSON channel is validated against its channel's JSON Schema (Ajv), and against
+// Foxglove's own definition of that schema (@foxglove/schemas), and the fields the schema marks
+// base64 are decoded. Prints one JSON summary per file and checks:
 //   - every channel the 3D panel needs is there (/tf, /tf_static, /fuse/scan, and /fuse/pose);
 //   - each point cloud's data is a whole number of points, its frame reachable in the one
 //     transform tree the FrameTransforms make (root "world");
@@ -15,6 +16,7 @@ import { McapIndexedReader } from "@mcap/core";
 import { FileHandleReadable } from "@mcap/nodejs";
 import { loadDecompressHandlers } from "@mcap/support";
 import Ajv2020 from "ajv/dist/2020.js";
+import foxgloveSchemas from "@foxglove/schemas/jsonschema.js";
 
 const args = process.argv.slice(2);
 const file = args.shift();
@@ -78,7 +80,11 @@ for (const channel of reader.channelsById.values()) {
   const schema = reader.schemasById.get(channel.schemaId);
   check(schema?.encoding === "jsonschema", `${channel.topic}: schema encoding jsonschema`);
   const parsed = JSON.parse(new TextDecoder().decode(schema.data));
-  json.set(channel.id, { topic: channel.topic, name: schema.name, validate: ajv.compile(parsed), paths: base64Paths(parsed) });
+  // Foxglove's own definition of the schema (@foxglove/schemas), by name: what its 3D panel reads.
+  const official = schema.name.startsWith("foxglove.") ? foxgloveSchemas[schema.name.slice("foxglove.".length)] : null;
+  if (schema.name.startsWith("foxglove.")) check(official !== undefined, `${schema.name} is one of Foxglove's schemas`);
+  json.set(channel.id, { topic: channel.topic, name: schema.name, validate: ajv.compile(parsed), paths: base64Paths(parsed),
+                         official: official ? ajv.compile(official) : null });
 }
 for (const topic of ["/tf", "/tf_static", "/fuse/scan"]) check(topic in counts, `channel ${topic} present`);
 
@@ -91,6 +97,10 @@ for await (const message of reader.readMessages({ topics: [...json.values()].map
   let msg = JSON.parse(new TextDecoder().decode(message.data));
   if (!c.validate(msg)) {
     if (invalid++ < 5) console.error(`${c.topic}: ${ajv.errorsText(c.validate.errors)}`);
+    continue;
+  }
+  if (c.official && !c.official(msg)) {
+    if (invalid++ < 5) console.error(`${c.topic}: not a ${c.name} by @foxglove/schemas: ${ajv.errorsText(c.official.errors)}`);
     continue;
   }
   for (const path of c.paths) msg = decodeBytes(msg, path);

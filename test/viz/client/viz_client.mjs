@@ -1,7 +1,8 @@
 // A Foxglove WebSocket client built on Foxglove's client library (@foxglove/ws-protocol) and the
 // `ws` WebSocket, for the fuse-viz test: it connects, subscribes to every advertised channel, and
-// decodes each message with the schema its channel advertised (JSON Schema, checked by Ajv; the
-// fields the schema marks base64 are decoded as bytes). Each message becomes one JSON line in OUT:
+// decodes each message with the schema its channel advertised (JSON Schema, checked by Ajv, and
+// against Foxglove's own definition of that schema from @foxglove/schemas; the fields the schema
+// marks base64 are decoded as bytes). Each message becomes one JSON line in OUT:
 //   {"topic", "schema", "t", "log_time_ns", "frame_id", ...what the test compares}
 // Point clouds are read through their PackedElementFields. On SIGTERM it checks that every
 // frame_id it saw is reachable in the transform tree built from the FrameTransforms channels,
@@ -13,6 +14,7 @@ import wsProtocol from "@foxglove/ws-protocol"; // CommonJS: its names are on th
 const { FoxgloveClient } = wsProtocol;
 import WebSocket from "ws";
 import Ajv2020 from "ajv/dist/2020.js";
+import foxgloveSchemas from "@foxglove/schemas/jsonschema.js";
 
 const [url, outPath] = process.argv.slice(2);
 if (!url || !outPath) {
@@ -132,8 +134,12 @@ client.on("advertise", (channels) => {
       continue;
     }
     const validate = ajv.compile(schema);
+    // Foxglove's own definition of the schema (@foxglove/schemas), by name: what its 3D panel reads.
+    const name = channel.schemaName.startsWith("foxglove.") ? channel.schemaName.slice("foxglove.".length) : null;
+    if (name && !foxgloveSchemas[name]) fail(`${channel.schemaName} is not one of Foxglove's schemas`);
+    const official = name && foxgloveSchemas[name] ? ajv.compile(foxgloveSchemas[name]) : null;
     const id = client.subscribe(channel.id);
-    bySubscription.set(id, { channel, validate, paths: base64Paths(schema) });
+    bySubscription.set(id, { channel, validate, official, paths: base64Paths(schema) });
     emit({ kind: "channel", topic: channel.topic, schema: channel.schemaName, id: channel.id });
   }
 });
@@ -149,6 +155,9 @@ client.on("message", ({ subscriptionId, timestamp, data }) => {
     return fail(`${topic}: not JSON: ${e.message}`);
   }
   if (!sub.validate(msg)) return fail(`${topic}: does not match its schema: ${ajv.errorsText(sub.validate.errors)}`);
+  if (sub.official && !sub.official(msg)) {
+    return fail(`${topic}: not a ${sub.channel.schemaName} by @foxglove/schemas: ${ajv.errorsText(sub.official.errors)}`);
+  }
   try {
     for (const path of sub.paths) msg = decodeBytes(msg, path);
     const line = handle(sub.channel, msg);
