@@ -13,7 +13,12 @@
 #                of fuse-update, fuse-state and the bench client in the real-time runs, default 0;
 #                negative values need root), STATE_RT / CLIENT_RT (SCHED_FIFO priority 1-99 for
 #                fuse-state and the bench client instead of their niceness, as deploy/ can with
-#                CPUSchedulingPolicy=fifo; needs root or CAP_SYS_NICE)
+#                CPUSchedulingPolicy=fifo; needs root or CAP_SYS_NICE), VIZ (off | connected | paused |
+#                killed, default off: fuse-viz runs beside the services in the real-time runs with a
+#                Foxglove client subscribed to every channel (VIZ_CLIENT, default
+#                build/test/viz/client/viz_client.mjs, its npm packages installed by the tests), which
+#                stays connected, is stopped with SIGSTOP from 20 s to 30 s, or is SIGKILLed at 20 s;
+#                fuse-viz's RSS is printed at 5 s and at the end)
 #
 # 1. Simulates a corridor recording of DURATION_S (cached under out/bench/).
 # 2. fuse-run RUN_REPEATS times: per-scan time (mean / p95) and wall time, scans/s.
@@ -90,6 +95,9 @@ echo "state_nice: ${STATE_NICE:-0}"
 echo "client_nice: ${CLIENT_NICE:-0}"
 echo "state_rt: ${STATE_RT:-none}"
 echo "client_rt: ${CLIENT_RT:-none}"
+echo "viz: ${VIZ:-off}"
+VIZ_CLIENT=${VIZ_CLIENT:-build/test/viz/client/viz_client.mjs}
+rss_kb() { awk '/^VmRSS:/ {print $2}' "/proc/$1/status" 2> /dev/null || echo nan; }
 
 # ---- 2. single process -----------------------------------------------------------------------
 for i in $(seq "$RUN_REPEATS"); do
@@ -130,12 +138,32 @@ for i in $(seq "$RT_REPEATS"); do
   nice -n "${UPDATE_NICE:-0}" "$BIN/fuse-update" "${S[@]}" > "$d/logs/fuse-update.log" 2>&1 &
   u=$!
   PIDS=("$m" "$s" "$u")
+  if [ "${VIZ:-off}" != off ]; then
+    "$BIN/fuse-viz" "${S[@]}" --set viz.port=0 > "$d/logs/fuse-viz.log" 2>&1 &
+    v=$!
+    PIDS+=("$v")
+    for _ in $(seq 100); do grep -q "on ws://" "$d/logs/fuse-viz.log" && break; sleep 0.1; done
+    url=$(grep -o "ws://[0-9.]*:[0-9]*" "$d/logs/fuse-viz.log" | head -1)
+    node "$VIZ_CLIENT" "$url" "$d/viz-client.jsonl" > "$d/logs/viz-client.log" 2>&1 &
+    vc=$!
+    PIDS+=("$vc")
+    ( sleep "$LEAD_S"; sleep 5; rss_kb "$v" > "$d/viz_rss_start"
+      case "$VIZ" in
+        paused) sleep 15; kill -STOP "$vc"; sleep 10; kill -CONT "$vc" ;;
+        killed) sleep 15; kill -KILL "$vc" ;;
+      esac ) &
+  fi
   START=$(awk -v t="$(now)" -v l="$LEAD_S" 'BEGIN{printf "%.6f", t+l}')
   $(prio "${CLIENT_RT:-}" "${CLIENT_NICE:-0}") "$BIN/fuse-bench-pipeline" "${S[@]}" --input "$REC" --start-wall "$START" --rate 1 --csv "$d/bench" ${BENCH_ARGS:-} > "$d/bench.txt" 2> "$d/logs/bench.log" &
   bp=$!
   PIDS+=("$bp")
   "$BIN/fuse-ingest" "${S[@]}" --input "$REC" --mode realtime --rate 1 --start-wall "$START" > "$d/logs/fuse-ingest.log" 2>&1 || true
   wait "$bp" || echo "realtime run $i: fuse-bench-pipeline failed (see $d/logs/bench.log)" >&2
+  if [ "${VIZ:-off}" != off ]; then
+    rss_kb "$v" > "$d/viz_rss_end"
+    kill -TERM "$vc" 2> /dev/null || true
+    stop_services "$v"
+  fi
   stop_services "$u" "$s" "$m"
 done
 rt() { for i in $(seq "$RT_REPEATS"); do value "$1" "$WORK/rt$i/bench.txt"; done | median; }
@@ -156,6 +184,11 @@ if [ "$RT_REPEATS" -gt 0 ]; then
            $(case "${BENCH_ARGS:-}" in *--observe-scan*) echo scan_hop_latency_median_ms scan_hop_latency_p95_ms ;; esac); do
     echo "$k: $(rt "$k")"
   done
+  if [ "${VIZ:-off}" != off ]; then
+    echo "viz_rss_start_kb: $(for i in $(seq "$RT_REPEATS"); do cat "$WORK/rt$i/viz_rss_start"; done | median)"
+    echo "viz_rss_end_kb: $(for i in $(seq "$RT_REPEATS"); do cat "$WORK/rt$i/viz_rss_end"; done | median)"
+    echo "viz_client_messages: $(for i in $(seq "$RT_REPEATS"); do grep -c '"topic"' "$WORK/rt$i/viz-client.jsonl" || true; done | median)"
+  fi
 fi
 
 # ---- 4. lockstep throughput ------------------------------------------------------------------

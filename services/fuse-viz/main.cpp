@@ -8,6 +8,11 @@
 // and the services' health, in schemas Foxglove's 3D panel draws without setup. Read-only on the
 // bus (DDS role viz). Exit codes: 0 stopped by SIGINT or SIGTERM, 1 could not start (the address
 // cannot be bound, transport), 2 usage or config.
+#include <sys/resource.h>
+
+#include <cerrno>
+#include <cstring>
+
 #include "fuse/core/logging.hpp"
 #include "fuse/service/health.hpp"
 #include "fuse/service/notify.hpp"
@@ -29,6 +34,11 @@ int main(int argc, char** argv) {
       "error."};
   if (!service::start_service(cli, argc, argv, args, config, exit_code)) return exit_code;
   auto log = logger("fuse-viz");
+  // Before any thread of its own starts, so that they all inherit it: a viewer yields the CPU to
+  // the estimator (viz.nice).
+  if (::setpriority(PRIO_PROCESS, 0, config.viz.nice) != 0) {
+    log->warn("could not lower its priority to niceness {} (viz.nice): {}", config.viz.nice, std::strerror(errno));
+  }
   try {
     auto participant = transport::make_participant(config.transport, "fuse-viz");
     viz::VizService viz(config, *participant);

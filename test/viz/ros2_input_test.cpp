@@ -26,6 +26,7 @@
 #include "fuse/eval/trajectory.hpp"
 #include "fuse/io/sensor_source.hpp"
 #include "fuse/launch/process.hpp"
+#include "system_test_util.hpp"
 
 namespace fuse {
 namespace {
@@ -33,17 +34,9 @@ namespace {
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 using launch::Process;
+using namespace viz_test;
 
 constexpr int kDomain = 0;
-const std::string kBin = FUSE_BIN_DIR;
-const std::string kRecording = std::string(FUSE_TEST_DATA) + "/corridor20/recording.mcap";
-const std::string kConfig = std::string(FUSE_CONFIG_DIR) + "/mid360.yaml";
-const std::string kOut = FUSE_TEST_OUT;
-
-std::string read_file(const std::string& path) {
-  std::ifstream f(path);
-  return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
-}
 
 /// The end time of the recording's last scan.
 double last_scan_end() {

@@ -17,6 +17,7 @@
 
 #include "fuse/io/sensor_source.hpp"
 #include "fuse/launch/process.hpp"
+#include "system_test_util.hpp"
 #include "fuse/transport/msg_traits.hpp"
 #include "fuse/transport/ros2.hpp"
 #include "fuse/transport/transport.hpp"
@@ -28,28 +29,10 @@ namespace fs = std::filesystem;
 namespace ros2 = transport::ros2;
 using namespace std::chrono_literals;
 using launch::Process;
+using namespace viz_test;
 
 constexpr int kDomain = 0;
-const std::string kBin = FUSE_BIN_DIR;
-const std::string kRecording = std::string(FUSE_TEST_DATA) + "/corridor20/recording.mcap";
-const std::string kConfig = std::string(FUSE_CONFIG_DIR) + "/mid360.yaml";
 const std::string kCheckDir = FUSE_ROS2_CHECK_DIR;
-const std::string kOut = FUSE_TEST_OUT;
-
-std::string read_file(const std::string& path) {
-  std::ifstream f(path);
-  return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
-}
-
-template <class Pred>
-bool wait_until(Pred pred, std::chrono::seconds timeout) {
-  const auto end = std::chrono::steady_clock::now() + timeout;
-  while (!pred()) {
-    if (std::chrono::steady_clock::now() > end) return false;
-    std::this_thread::sleep_for(50ms);
-  }
-  return true;
-}
 
 std::string key(double t) { return std::to_string(std::llround(t * 1e6)); }
 std::string num(double v) {

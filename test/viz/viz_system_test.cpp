@@ -26,6 +26,7 @@
 #include <thread>
 
 #include "fuse/launch/process.hpp"
+#include "system_test_util.hpp"
 #include "fuse/transport/msg_traits.hpp"
 #include "fuse/transport/transport.hpp"
 
@@ -35,18 +36,10 @@ namespace {
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 using launch::Process;
+using namespace viz_test;
 
 constexpr int kDomain = 9;
-const std::string kBin = FUSE_BIN_DIR;
-const std::string kRecording = std::string(FUSE_TEST_DATA) + "/corridor20/recording.mcap";
-const std::string kConfig = std::string(FUSE_CONFIG_DIR) + "/mid360.yaml";
 const std::string kClientDir = FUSE_VIZ_CLIENT_DIR;
-const std::string kOut = FUSE_TEST_OUT;
-
-std::string read_file(const std::string& path) {
-  std::ifstream f(path);
-  return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
-}
 
 /// The client's output: message lines (a "topic"), or protocol lines (a "kind": serverInfo,
 /// channel, error, summary).
@@ -60,16 +53,6 @@ std::vector<Json::Value> json_lines(const std::string& path) {
     if (!line.empty() && reader->parse(line.data(), line.data() + line.size(), &v, &errors)) out.push_back(v);
   }
   return out;
-}
-
-template <class Pred>
-bool wait_until(Pred pred, std::chrono::seconds timeout) {
-  const auto end = std::chrono::steady_clock::now() + timeout;
-  while (!pred()) {
-    if (std::chrono::steady_clock::now() > end) return false;
-    std::this_thread::sleep_for(50ms);
-  }
-  return true;
 }
 
 /// What the test itself reads over DDS: the deskewed scans and the map server's point count.

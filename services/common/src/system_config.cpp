@@ -69,6 +69,8 @@ void VizConfig::load(ConfigNode& node) {
   node.get("max_clients", max_clients).get("map_period_s", map_period_s);
   node.get("trajectory_period_s", trajectory_period_s).get("max_trajectory_poses", max_trajectory_poses);
   node.get("world_frame", world_frame).get("imu_frame", imu_frame).get("lidar_frame", lidar_frame);
+  node.get("nice", nice);
+  node.check(nice >= 0 && nice <= 19, "nice", "must be in [0, 19]");
   node.check(port >= 0 && port <= 65535, "port", "must be in [0, 65535]");
   node.check(std::isfinite(max_client_queue_mb) && max_client_queue_mb >= 1.0 && max_client_queue_mb <= 4096.0,
              "max_client_queue_mb", "must be in [1, 4096] MiB");

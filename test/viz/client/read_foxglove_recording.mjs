@@ -16,6 +16,7 @@ import { McapIndexedReader } from "@mcap/core";
 import { FileHandleReadable } from "@mcap/nodejs";
 import { loadDecompressHandlers } from "@mcap/support";
 import Ajv2020 from "ajv/dist/2020.js";
+import { base64Paths, decodeBytes } from "./foxglove_json.mjs";
 import foxgloveSchemas from "@foxglove/schemas/jsonschema.js";
 
 const args = process.argv.slice(2);
@@ -39,22 +40,6 @@ function check(ok, what) {
     failures += 1;
     console.error(`check failed: ${what}`);
   }
-}
-
-function base64Paths(schema, path = []) {
-  if (!schema || typeof schema !== "object") return [];
-  if (schema.type === "string" && schema.contentEncoding === "base64") return [path];
-  if (schema.type === "object" && schema.properties) {
-    return Object.entries(schema.properties).flatMap(([k, v]) => base64Paths(v, [...path, k]));
-  }
-  if (schema.type === "array" && schema.items) return base64Paths(schema.items, [...path, "[]"]);
-  return [];
-}
-function decodeBytes(value, path) {
-  if (path.length === 0) return Buffer.from(value, "base64");
-  const [head, ...rest] = path;
-  if (head === "[]") return value.map((v) => decodeBytes(v, rest));
-  return { ...value, [head]: decodeBytes(value[head], rest) };
 }
 
 const truth = new Map(); // round(t * 1e6) -> [x, y, z]

@@ -14,6 +14,7 @@ import wsProtocol from "@foxglove/ws-protocol"; // CommonJS: its names are on th
 const { FoxgloveClient } = wsProtocol;
 import WebSocket from "ws";
 import Ajv2020 from "ajv/dist/2020.js";
+import { base64Paths, decodeBytes } from "./foxglove_json.mjs";
 import foxgloveSchemas from "@foxglove/schemas/jsonschema.js";
 
 const [url, outPath] = process.argv.slice(2);
@@ -34,25 +35,6 @@ function fail(message) {
   errors += 1;
   emit({ kind: "error", message });
   console.error(message);
-}
-
-// Paths (arrays of property names, "[]" for array items) of the string fields the schema marks
-// contentEncoding base64: the bytes fields of a Foxglove schema in JSON.
-function base64Paths(schema, path = []) {
-  if (!schema || typeof schema !== "object") return [];
-  if (schema.type === "string" && schema.contentEncoding === "base64") return [path];
-  if (schema.type === "object" && schema.properties) {
-    return Object.entries(schema.properties).flatMap(([k, v]) => base64Paths(v, [...path, k]));
-  }
-  if (schema.type === "array" && schema.items) return base64Paths(schema.items, [...path, "[]"]);
-  return [];
-}
-
-function decodeBytes(value, path) {
-  if (path.length === 0) return Buffer.from(value, "base64");
-  const [head, ...rest] = path;
-  if (head === "[]") return value.map((v) => decodeBytes(v, rest));
-  return { ...value, [head]: decodeBytes(value[head], rest) };
 }
 
 function timeOf(stamp) {

@@ -119,6 +119,8 @@ struct VizConfig {
   std::string world_frame = "world";  ///< frame names of the transform tree world -> imu -> lidar
   std::string imu_frame = "imu";
   std::string lidar_frame = "lidar";
+  /// Niceness fuse-viz gives itself at start (0..19): a viewer yields the CPU to the estimator.
+  int nice = 10;
   void load(ConfigNode& node);
 };
 
