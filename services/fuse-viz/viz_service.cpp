@@ -34,6 +34,14 @@ VizService::VizService(const service::SystemConfig& config, transport::Participa
       view_(config.viz, config.estimator.T_imu_lidar) {
   logger("fuse-viz")->info("serving Foxglove WebSocket (foxglove.websocket.v1) on ws://{}:{}", config_.address, port());
   send(view_.static_transforms(0.0));  // latched: every client gets the static part of the tree
+  server_.on_subscribe([this](foxglove::ChannelId channel) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (channel == static_cast<foxglove::ChannelId>(Topic::kMap)) map_requested_ = true;
+      if (channel == static_cast<foxglove::ChannelId>(Topic::kTrajectory)) trajectory_requested_ = true;
+    }
+    wake_.notify_all();
+  });
   periodic_ = std::thread([this] { run_periodic(); });
   using transport::Subscriber;
   namespace topics = transport::topics;
@@ -116,13 +124,17 @@ void VizService::run_periodic() {
     if (stopping_) break;
     const Clock::time_point now = Clock::now();
     std::vector<service::FoxgloveMessage> out;
-    if (now >= next_map) {
+    // Encoded only while someone listens (the view keeps "changed" until then); at once for a
+    // client that just subscribed.
+    if ((now >= next_map && wanted(Topic::kMap)) || map_requested_) {
+      map_requested_ = false;
       if (auto m = view_.map_if_changed()) {
         out.push_back(std::move(*m));
         next_map = now + seconds(config_.map_period_s);
       }
     }
-    if (now >= next_trajectory) {
+    if ((now >= next_trajectory && wanted(Topic::kTrajectory)) || trajectory_requested_) {
+      trajectory_requested_ = false;
       if (auto m = view_.trajectory_if_changed()) {
         out.push_back(std::move(*m));
         next_trajectory = now + seconds(config_.trajectory_period_s);

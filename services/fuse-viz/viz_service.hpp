@@ -1,7 +1,9 @@
 // fuse-viz's transport side: the system's topics read from DDS, turned into Foxglove messages by
 // FoxgloveView (fuse/service/foxglove_view.hpp, shared with fuse-record) and served to Foxglove
 // clients (fuse/foxglove/server.hpp). The map and the trajectory go out whole, latched, at most
-// every viz.map_period_s / viz.trajectory_period_s when they changed (own thread).
+// every viz.map_period_s / viz.trajectory_period_s when they changed (own thread), and only while
+// a client subscribes to them: one that subscribes gets the last one sent at once (latched) and a
+// current one within a tick.
 //
 // Every DDS callback encodes and hands the message to the server, which queues it per client
 // (bounded, the oldest dropped and counted): a slow client never holds up a DDS thread.
@@ -51,6 +53,8 @@ class VizService {
   std::map<std::string, std::uint64_t> counters_;
   std::string last_error_;
   bool stopping_ = false;
+  bool map_requested_ = false;         ///< a client subscribed to the map: send it now
+  bool trajectory_requested_ = false;  ///< likewise the trajectory
   std::condition_variable wake_;
   std::thread periodic_;
 

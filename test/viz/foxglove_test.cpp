@@ -8,6 +8,7 @@
 #include <boost/asio.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/websocket.hpp>
+#include <atomic>
 #include <chrono>
 #include <cstring>
 #include <thread>
@@ -210,6 +211,17 @@ TEST(FoxgloveServer, AdvertisesSubscribesAndFramesMessageData) {
   EXPECT_TRUE(server.has_subscribers(2));
   EXPECT_EQ(server.stats().clients, 1u);
   EXPECT_THROW(server.publish(3, 0, "x"), std::out_of_range);
+}
+
+TEST(FoxgloveServer, ASubscriptionIsAnnouncedToTheProducer) {
+  Server server(any_port(), two_channels());
+  std::atomic<int> announced{0};
+  server.on_subscribe([&](ChannelId channel) { announced = static_cast<int>(channel); });
+  Client client(server.port());
+  client.read();
+  client.read();
+  client.send(R"({"op":"subscribe","subscriptions":[{"id":3,"channelId":2}]})");
+  EXPECT_TRUE(wait_until([&] { return announced == 2; }));
 }
 
 TEST(FoxgloveServer, BadRequestsGetAStatusAndTheConnectionStays) {

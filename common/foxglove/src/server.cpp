@@ -101,6 +101,7 @@ struct Server::Impl {
   std::map<ChannelId, std::pair<std::uint64_t, std::shared_ptr<const std::string>>> latched;  // io thread
   std::vector<std::atomic<int>> subscribers;            // per channel index
   std::string session_id;
+  std::function<void(ChannelId)> subscribed;  // set before clients connect
   std::atomic<bool> stopped{false};
   std::atomic<std::uint64_t> clients{0}, connections{0}, refused{0}, sent{0}, dropped{0}, bad{0};
 
@@ -269,6 +270,7 @@ class Session : public std::enable_shared_from_this<Session> {
       subscriptions_[id] = channel;
       by_channel_[channel] = id;
       ++server_.subscribers[channel - 1];
+      if (server_.subscribed) server_.subscribed(channel);
       const auto last = server_.latched.find(channel);
       if (last != server_.latched.end()) send(data_frame(id, last->second.first, last->second.second));
     }
@@ -395,6 +397,10 @@ void Server::publish(ChannelId channel, std::uint64_t log_time_ns, std::string p
       if (const std::uint32_t* sub = session->subscription_of(channel)) session->send(data_frame(*sub, log_time_ns, body));
     }
   });
+}
+
+void Server::on_subscribe(std::function<void(ChannelId)> callback) {
+  net::post(impl_->io, [impl = impl_.get(), callback = std::move(callback)] { impl->subscribed = callback; });
 }
 
 bool Server::has_subscribers(ChannelId channel) const {

@@ -87,9 +87,11 @@ std::optional<std::uint64_t> McapSource::expected_events() const {
 std::optional<SensorEvent> McapSource::decode(const McapMessage& m) {
   const bool imu = m.channel->topic == kImuTopic, scan = m.channel->topic == kLidarTopic;
   if (!imu && !scan) {
-    // JSON channels are views written beside the data (the Foxglove channels of fuse-sim and
-    // fuse-record), not input: passed over without a count.
-    if (m.channel->message_encoding == "json") return std::nullopt;
+    // JSON channels with a JSON Schema are views written beside the data (the Foxglove channels
+    // of fuse-sim and fuse-record), not input: passed over without a count.
+    if (m.channel->message_encoding == "json" && m.schema != nullptr && m.schema->encoding == "jsonschema") {
+      return std::nullopt;
+    }
     if (unknown_channels_.insert(m.channel->id).second) {
       validator_.count(reason::kUnknownChannel, "channel '" + m.channel->topic + "' is not read, ignored");
     }

@@ -11,6 +11,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -66,6 +67,10 @@ class Server {
   void publish(ChannelId channel, std::uint64_t log_time_ns, std::string payload);
   /// Whether any client is subscribed to `channel` now (an encoder may skip work otherwise).
   bool has_subscribers(ChannelId channel) const;
+  /// Called (on the server's thread; keep it short) each time a client subscribes to a channel:
+  /// a producer that skips work while nobody listens can send a fresh message. Set it before
+  /// clients connect.
+  void on_subscribe(std::function<void(ChannelId)> callback);
   ServerStats stats() const;
   /// Closes every connection and stops the thread. Idempotent.
   void stop();
