@@ -65,8 +65,10 @@ VizService::VizService(const service::SystemConfig& config, transport::Participa
         return view_.odometry(s, wanted(Topic::kPose), wanted(Topic::kTf));
       }),
       bad(topics::kOdometry));
+  // Every scan-rate pose joins the trajectory: deeper than the table's depth 1, which is for a late joiner.
+  constexpr int kCorrectedDepth = 100;
   corrected_ = std::make_unique<Subscriber<fuse_msgs::StateEstimate>>(
-      participant, topics::kCorrected,
+      participant, topics::kCorrected, kCorrectedDepth,
       guarded(topics::kCorrected, [this](const fuse_msgs::StateEstimate& s) { return Messages{view_.corrected(s)}; }),
       bad(topics::kCorrected));
   world_scans_ = std::make_unique<Subscriber<fuse_msgs::WorldScan>>(

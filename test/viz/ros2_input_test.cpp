@@ -66,13 +66,8 @@ std::string run_services(const std::string& dir, const std::vector<std::string>&
                          const std::vector<std::string>& driver) {
   fs::remove_all(dir);
   fs::create_directories(dir + "/logs");
-  const std::vector<std::string> common{"--config", kConfig, "--set", "transport.domain_id=" + std::to_string(kDomain),
-                                        "--set", "update.map_sync_timeout_s=3", "--set", "health.period_s=0.2"};
-  auto args = [&](const std::string& service, std::vector<std::string> more) {
-    std::vector<std::string> argv{kBin + "/" + service};
-    argv.insert(argv.end(), common.begin(), common.end());
-    argv.insert(argv.end(), more.begin(), more.end());
-    return argv;
+  auto args = [](const std::string& service, const std::vector<std::string>& more) {
+    return service_argv(service, kDomain, {"update.map_sync_timeout_s=3"}, more);
   };
   const std::string trajectory = dir + "/trajectory.tum";
   std::map<std::string, Process> services;

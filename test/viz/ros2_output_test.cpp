@@ -133,15 +133,11 @@ TEST(Ros2Output, ARos2NodeDecodesWhatFusePublished) {
     cap.map_points = s.points();
   });
 
-  const std::vector<std::string> common{"--config", kConfig, "--set", "transport.domain_id=" + std::to_string(kDomain),
-                                        "--set", "ingest.lockstep_timeout_s=1.5", "--set", "update.map_sync_timeout_s=3",
-                                        "--set", "health.period_s=0.2", "--set", "ros2.enabled=true",
-                                        "--set", "ros2.map_period_s=0.2"};
-  auto args = [&](const std::string& service, std::vector<std::string> more) {
-    std::vector<std::string> argv{kBin + "/" + service};
-    argv.insert(argv.end(), common.begin(), common.end());
-    argv.insert(argv.end(), more.begin(), more.end());
-    return argv;
+  auto args = [](const std::string& service, const std::vector<std::string>& more) {
+    return service_argv(service, kDomain,
+                        {"ingest.lockstep_timeout_s=1.5", "update.map_sync_timeout_s=3", "ros2.enabled=true",
+                         "ros2.map_period_s=0.2"},
+                        more);
   };
   std::map<std::string, Process> services;
   services.emplace("fuse-map", Process::spawn(args("fuse-map", {"--map-dir", dir + "/map"}), dir + "/logs/fuse-map.log"));

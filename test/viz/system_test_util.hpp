@@ -7,6 +7,7 @@
 #include <iterator>
 #include <string>
 #include <thread>
+#include <vector>
 
 namespace fuse::viz_test {
 
@@ -19,6 +20,17 @@ inline const std::string kOut = FUSE_TEST_OUT;
 inline std::string read_file(const std::string& path) {
   std::ifstream f(path);
   return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+}
+
+/// A service's command line: the binary, the config, the domain and health period every test
+/// sets, the test's own `sets` (key=value), then `more`.
+inline std::vector<std::string> service_argv(const std::string& service, int domain,
+                                             const std::vector<std::string>& sets, const std::vector<std::string>& more) {
+  std::vector<std::string> argv{kBin + "/" + service, "--config", kConfig, "--set",
+                                "transport.domain_id=" + std::to_string(domain), "--set", "health.period_s=0.2"};
+  for (const std::string& kv : sets) argv.insert(argv.end(), {"--set", kv});
+  argv.insert(argv.end(), more.begin(), more.end());
+  return argv;
 }
 
 /// Polls `pred` every 50 ms until it holds (true) or `timeout` passed (false).

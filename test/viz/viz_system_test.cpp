@@ -96,14 +96,8 @@ TEST(VizSystem, AFoxgloveClientSeesWhatTheSystemEstimates) {
   const std::string dir = kOut + "/end_to_end";
   fs::remove_all(dir);
   fs::create_directories(dir + "/logs");
-  const std::vector<std::string> common{"--config", kConfig, "--set", "transport.domain_id=" + std::to_string(kDomain),
-                                        "--set", "ingest.lockstep_timeout_s=1.5", "--set", "update.map_sync_timeout_s=3",
-                                        "--set", "health.period_s=0.2"};
-  auto args = [&](const std::string& service, std::vector<std::string> more) {
-    std::vector<std::string> argv{kBin + "/" + service};
-    argv.insert(argv.end(), common.begin(), common.end());
-    argv.insert(argv.end(), more.begin(), more.end());
-    return argv;
+  auto args = [](const std::string& service, const std::vector<std::string>& more) {
+    return service_argv(service, kDomain, {"ingest.lockstep_timeout_s=1.5", "update.map_sync_timeout_s=3"}, more);
   };
   DdsSide dds;
   std::map<std::string, Process> services;

@@ -41,7 +41,8 @@ Ros2Output::Ros2Output(transport::Participant& participant, const Ros2Config& co
 }
 
 void Ros2Output::odometry(const fuse_msgs::StateEstimate& s) {
-  if (!odometry_) return;
+  // At IMU rate on fuse-state's IMU path: nothing is built while no ROS 2 node listens.
+  if (!odometry_ || (odometry_->matched_readers() == 0 && tf_->matched_readers() == 0)) return;
   ros2::Odometry m;
   m.t = s.t();
   m.frame = config_.world_frame;

@@ -19,3 +19,14 @@ export function decodeBytes(value, path) {
   if (head === "[]") return value.map((v) => decodeBytes(v, rest));
   return { ...value, [head]: decodeBytes(value[head], rest) };
 }
+
+/// The root a frame reaches through `parents` (child -> parent, from FrameTransforms); a cycle
+/// ends at the frame where it closes.
+export function rootOf(parents, frame) {
+  const seen = new Set();
+  while (parents.has(frame) && !seen.has(frame)) {
+    seen.add(frame);
+    frame = parents.get(frame);
+  }
+  return frame;
+}

@@ -16,7 +16,7 @@ import { McapIndexedReader } from "@mcap/core";
 import { FileHandleReadable } from "@mcap/nodejs";
 import { loadDecompressHandlers } from "@mcap/support";
 import Ajv2020 from "ajv/dist/2020.js";
-import { base64Paths, decodeBytes } from "./foxglove_json.mjs";
+import { base64Paths, decodeBytes, rootOf } from "./foxglove_json.mjs";
 import foxgloveSchemas from "@foxglove/schemas/jsonschema.js";
 
 const args = process.argv.slice(2);
@@ -114,16 +114,8 @@ for await (const message of reader.readMessages({ topics: [...json.values()].map
 }
 await handle.close();
 check(invalid === 0, `${invalid} messages do not match their schema`);
-const rootOf = (f) => {
-  const seen = new Set();
-  while (parents.has(f) && !seen.has(f)) {
-    seen.add(f);
-    f = parents.get(f);
-  }
-  return f;
-};
 const all = new Set([...frames, ...parents.keys(), ...parents.values()]);
-const roots = [...new Set([...all].map(rootOf))];
+const roots = [...new Set([...all].map((f) => rootOf(parents, f)))];
 check(roots.length === 1 && roots[0] === "world", `one transform tree rooted at world (roots: ${roots})`);
 for (const [a, b] of pairs) check(counts[a] === counts[b] && counts[a] > 0, `${a} (${counts[a]}) and ${b} (${counts[b]}) pair up`);
 if (truthPath) check(posesChecked > 0 && posesChecked === counts["/fuse/pose"], `every /fuse/pose checked against the truth (${posesChecked})`);

@@ -14,7 +14,7 @@ import wsProtocol from "@foxglove/ws-protocol"; // CommonJS: its names are on th
 const { FoxgloveClient } = wsProtocol;
 import WebSocket from "ws";
 import Ajv2020 from "ajv/dist/2020.js";
-import { base64Paths, decodeBytes } from "./foxglove_json.mjs";
+import { base64Paths, decodeBytes, rootOf } from "./foxglove_json.mjs";
 import foxgloveSchemas from "@foxglove/schemas/jsonschema.js";
 
 const [url, outPath] = process.argv.slice(2);
@@ -152,17 +152,9 @@ client.on("message", ({ subscriptionId, timestamp, data }) => {
 
 process.on("SIGTERM", () => {
   // Every frame a message named must reach the root of the one tree the transforms make.
-  const rootOf = (frame) => {
-    const seen = new Set();
-    while (parents.has(frame) && !seen.has(frame)) {
-      seen.add(frame);
-      frame = parents.get(frame);
-    }
-    return frame;
-  };
   const all = new Set([...frames, ...parents.keys(), ...parents.values()]);
-  const roots = new Set([...all].map(rootOf));
-  const unreachable = [...all].filter((f) => rootOf(f) !== [...roots][0]);
+  const roots = new Set([...all].map((f) => rootOf(parents, f)));
+  const unreachable = [...all].filter((f) => rootOf(parents, f) !== [...roots][0]);
   if (roots.size !== 1) fail(`the transforms make ${roots.size} trees (${[...roots].join(", ")}), not one`);
   emit({ kind: "summary", counts, frames: [...all], roots: [...roots], unreachable, errors });
   fs.closeSync(out);

@@ -104,6 +104,14 @@ class Subscriber {
     reader_ = participant.create_reader(topic, type_support<T>(), topic_qos(topic),
                                         [this](const std::uint8_t* data, std::size_t size) { receive(data, size); });
   }
+  /// The topic's QoS with a reader history of `depth` samples: a reader that must not lose the
+  /// samples of a burst on a topic whose table depth is for late joiners (e.g. state/corrected).
+  Subscriber(Participant& participant, const std::string& topic, int depth, Handler on_sample,
+             ErrorHandler on_malformed = {})
+      : on_sample_(std::move(on_sample)), on_malformed_(std::move(on_malformed)) {
+    reader_ = participant.create_reader(topic, type_support<T>(), with_depth(topic_qos(topic), depth),
+                                        [this](const std::uint8_t* data, std::size_t size) { receive(data, size); });
+  }
   ~Subscriber() { reader_.reset(); }  // stop callbacks before the handlers go away
   Subscriber(const Subscriber&) = delete;
   Subscriber& operator=(const Subscriber&) = delete;
