@@ -577,11 +577,22 @@ void StateService::on_history(const fuse_msgs::HistoryRequest& req, fuse_msgs::H
     set_error(fuse_msgs::RPC_NOT_READY, "recovering the last correction", rep);
     return;
   }
-  rep.initialised(tracker_.initialised());
-  if (!rep.initialised()) {
-    set_error(fuse_msgs::RPC_NOT_READY, "the state is not initialised", rep);
+  if (!tracker_.initialised()) {
+    // The sample that completes the still window may be just behind a scan that ends before it
+    // (a ROS 2 cloud ends at its last point, microseconds before the frame's IMU sample): while
+    // the IMU flows and has not reached the scan's end, the requester waits; otherwise the scan
+    // cannot be covered and is skipped.
+    const double silent =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - last_imu_arrival_).count();
+    const bool imu_behind = tracker_.last_imu_time() < t1 && silent < kImuSilenceS;
+    rep.initialised(imu_behind);
+    set_error(fuse_msgs::RPC_NOT_READY,
+              imu_behind ? "the state is not initialised yet: waiting for the IMU at the scan end"
+                         : "the state is not initialised",
+              rep);
     return;
   }
+  rep.initialised(true);
   StateHistory& h = tracker_.history();
   if (h.newest_time() < t1) {
     // Beyond the allowed jump of a clock: the scan's stamp is wrong (or only the LiDAR clock has

@@ -183,6 +183,58 @@ TEST(StateHistory, EnsureEntryExistingAndTooOld) {
   EXPECT_EQ(h.size(), n + 1);
 }
 
+// A static initialisation saw the sensor rest over [rest_since, t0]: an entry before t0 within
+// that window is the initial state, and the step from it to t0 is motionless, so a correction
+// there carries to t0 unchanged (only the covariance grows by the IMU noise of the step). Before
+// the window, or once the rest's end is trimmed away, the history is too old as before.
+TEST(StateHistory, EntriesWithinTheInitialRestAreTheInitialState) {
+  StateHistory h(StateHistoryConfig{0.5}, ImuNoiseConfig{});
+  NavState x0;
+  x0.R = so3::Exp(Eigen::Vector3d(0.05, -0.03, 0.4));
+  x0.bg = Eigen::Vector3d(0.002, -0.001, 0.003);
+  x0.ba = Eigen::Vector3d(0.05, 0.02, -0.04);
+  ImuSample held;
+  held.t = kT0;
+  held.gyro = x0.bg;
+  held.accel = x0.R.transpose() * (-x0.g) + x0.ba;
+  h.reset(kT0, x0, initial_P(), held, kT0 - 1.0);
+
+  const double t_scan = kT0 - 5e-6;  // a scan ending at its last point, just before the init
+  ASSERT_TRUE(h.ensure_entry(t_scan));
+  EXPECT_EQ(h.oldest_time(), t_scan);
+  expect_same_state(h.query(t_scan).x, x0, 1e-15);
+  EXPECT_FALSE(h.ensure_entry(kT0 - 1.1));
+  ASSERT_TRUE(h.ensure_entry(kT0 - 0.6));
+  expect_same_state(h.query(kT0 - 0.3).x, x0, 1e-12);
+
+  NavState corrected = x0;
+  corrected.p = Eigen::Vector3d(0.02, -0.01, 0.005);
+  corrected.R = so3::Exp(Eigen::Vector3d(0.0, 0.0, 0.01)) * x0.R;  // about the vertical: at rest still
+  h.correct(kT0 - 0.6, corrected, initial_P());
+  expect_same_state(h.query(kT0).x, corrected, 1e-9);
+  EXPECT_GT(h.query(kT0).P(Idx::kVel, Idx::kVel), initial_P()(Idx::kVel, Idx::kVel));
+
+  for (int k = 1; k <= 400; ++k) {  // 2 s of rest: the initialisation's entries are trimmed
+    ImuSample s = held;
+    s.t = kT0 + k * kDt;
+    h.add_imu(s);
+  }
+  ASSERT_GT(h.oldest_time(), kT0);
+  EXPECT_FALSE(h.ensure_entry(kT0 - 0.5));
+  EXPECT_FALSE(h.ensure_entry(h.oldest_time() - 0.01));
+}
+
+// A clock step or a received slice knows no rest before its oldest entry.
+TEST(StateHistory, NoRestBeforeAResetWithoutOne) {
+  StateHistory h = make_history(10);
+  EXPECT_FALSE(h.ensure_entry(kT0 - 5e-6));
+  StateHistory with_rest(StateHistoryConfig{5.0}, ImuNoiseConfig{});
+  with_rest.reset(kT0, NavState{}, initial_P(), imu_at(kT0), kT0 - 1.0);
+  std::vector<StateHistory::Entry> slice{with_rest.newest()};
+  with_rest.assign(slice, kT0);
+  EXPECT_FALSE(with_rest.ensure_entry(kT0 - 5e-6));
+}
+
 // ensure_entry only inserts a (propagated) entry: no posterior exists at that time, so the status
 // there must stay "propagated" (QueryStatus::kCorrected is "at or before the last LiDAR correction").
 TEST(StateHistory, EnsureEntryDoesNotMarkTheStateCorrected) {

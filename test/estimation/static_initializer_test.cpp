@@ -48,6 +48,7 @@ TEST(StaticInitializer, AlignsGravityAndEstimatesGyroBias) {
   EXPECT_LT(std::acos(std::min(1.0, up_true.dot(up_est))), 1e-3);
   EXPECT_EQ(x->v, Eigen::Vector3d::Zero());
   EXPECT_EQ(init.restarts(), 0u);
+  EXPECT_EQ(init.rest_since(), 10.0);  // the still window began with the first sample
 }
 
 // The sensor is swinging (gyro std well above max_gyro_std): no initial state, the window restarts.

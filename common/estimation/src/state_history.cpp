@@ -78,14 +78,17 @@ Eigen::Vector3d StateHistory::step_accel(const Entry& prev, const Eigen::Vector3
 
 void StateHistory::mark_newest_coasting() { entries_.back().coasting = true; }
 
-void StateHistory::reset(double t, const NavState& x, const StateCovariance& P, const ImuSample& held) {
+void StateHistory::reset(double t, const NavState& x, const StateCovariance& P, const ImuSample& held,
+                         double rest_since) {
   entries_.clear();
   entries_.push_back({t, x, P, held.gyro, held.accel, EntryStep{}, false});
   stale_from_ = entries_.size();
   last_correction_t_ = t;
+  rest_since_ = rest_since < t ? rest_since : std::numeric_limits<double>::quiet_NaN();
 }
 
 void StateHistory::assign(const std::vector<Entry>& entries, double last_correction_t) {
+  rest_since_ = std::numeric_limits<double>::quiet_NaN();
   entries_.assign(entries.begin(), entries.end());
   stale_from_ = entries_.size();
   last_correction_t_ = last_correction_t;
@@ -133,7 +136,21 @@ std::size_t StateHistory::find_at_or_before(double t) const {
 }
 
 bool StateHistory::ensure_entry(double t) {
-  if (entries_.empty() || t < entries_.front().t - kSameTime) return false;
+  if (entries_.empty()) return false;
+  if (t < entries_.front().t - kSameTime) {
+    if (!(t >= rest_since_ - kSameTime)) return false;  // NaN: no rest known before the oldest
+    // Within the still window of the static initialisation: the sensor rested, so the state at t
+    // is the oldest one, and the step from t to it is motionless (ω = b_g, f = R⊤(−g) + b_a).
+    Entry rest = entries_.front();
+    rest.t = t;
+    rest.step = EntryStep{};
+    rest.coasting = false;
+    rest.gyro = rest.x.bg;
+    rest.accel = rest.x.R.transpose() * (-rest.x.g) + rest.x.ba;
+    entries_.push_front(rest);
+    ++stale_from_;
+    return true;
+  }
   const std::size_t i = find_at_or_before(t);
   if (std::abs(entries_[i].t - t) <= kSameTime) return true;
   refresh_to(i);
@@ -261,6 +278,7 @@ void StateHistory::trim() {
   std::size_t n = 0;  // entries to drop from the front
   while (entries_.size() - n > 2 && entries_[n + 1].t < keep_from) ++n;
   if (n == 0) return;
+  rest_since_ = std::numeric_limits<double>::quiet_NaN();  // the rest's end is no longer kept
   refresh_to(n);  // the new oldest entry must be up to date: nothing before it is kept
   entries_.erase(entries_.begin(), entries_.begin() + static_cast<std::ptrdiff_t>(n));
   stale_from_ -= n;

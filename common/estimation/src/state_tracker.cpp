@@ -154,7 +154,7 @@ void StateTracker::initialise(const NavState& x0_in, const ImuSample& imu) {
     set(Idx::kExtPos, 3, c.extrinsic_translation_std);
   }
   if (config_.estimate_gravity) set(Idx::kGrav, 2, c.gravity_std);
-  history_.reset(imu.t, x0, P, imu);
+  history_.reset(imu.t, x0, P, imu, initializer_.rest_since());
   logger("estimator")->info("initialised at t={:.3f}: gyro bias [{:.5f} {:.5f} {:.5f}] rad/s after {} restarts", imu.t,
                             x0.bg.x(), x0.bg.y(), x0.bg.z(), initializer_.restarts());
 }

@@ -18,6 +18,7 @@
 
 #include <algorithm>
 #include <deque>
+#include <limits>
 #include <vector>
 
 #include "fuse/core/config.hpp"
@@ -85,8 +86,11 @@ class StateHistory {
 
   StateHistory(const StateHistoryConfig& config, const ImuNoiseConfig& noise) : config_(config), noise_(noise) {}
 
-  /// Starts the history at time t (static initialisation result).
-  void reset(double t, const NavState& x, const StateCovariance& P, const ImuSample& held);
+  /// Starts the history at time t. A static initialisation result passes the time its still
+  /// window began (`rest_since` < t): the state is then known at rest over [rest_since, t], and
+  /// ensure_entry answers for times in it (a scan that ends just before the initialisation).
+  void reset(double t, const NavState& x, const StateCovariance& P, const ImuSample& held,
+             double rest_since = std::numeric_limits<double>::quiet_NaN());
   bool initialised() const { return !entries_.empty(); }
   /// Replaces the history by `entries` (sorted by time, not empty): a slice received from the
   /// process that owns the history (fuse-update runs the LiDAR step on it).
@@ -101,7 +105,8 @@ class StateHistory {
   /// levelling), so that a re-propagation from an older correction applies it again.
   void add_step_to_newest(const EntryStep& step);
   /// Makes sure an entry exists at time t (t ≥ oldest; past the newest it extrapolates with the
-  /// held measurement). Returns false when t is older than the history.
+  /// held measurement; before the oldest, within the rest the history started from, it is the
+  /// oldest state at rest). Returns false when t is older than the history.
   bool ensure_entry(double t);
   /// Replaces the entry at t (which must exist, see ensure_entry) and re-propagates later entries.
   void correct(double t, const NavState& x, const StateCovariance& P);
@@ -153,6 +158,9 @@ class StateHistory {
   ImuNoiseConfig noise_;
   // Mutable: reading refreshes stale entries (logically const).
   mutable std::deque<Entry> entries_;
+  /// Start of the rest that precedes the oldest entry (static initialisation), NaN when none is
+  /// known (a clock step, a received slice) or the oldest entry is no longer the rest's end.
+  double rest_since_ = std::numeric_limits<double>::quiet_NaN();
   mutable std::size_t stale_from_ = 1;  ///< index of the first stale entry; entries_.size() when none
   double last_correction_t_ = -1.0;
 };

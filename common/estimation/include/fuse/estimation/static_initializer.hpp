@@ -2,6 +2,7 @@
 // specific force points against gravity: R_WI·ā = −g/|g|·|ā| fixes roll and pitch (yaw = 0).
 #pragma once
 
+#include <limits>
 #include <optional>
 #include <vector>
 
@@ -24,10 +25,14 @@ class StaticInitializer {
   /// Feeds one sample; returns the initial state once a long enough still window is seen.
   std::optional<NavState> add(const ImuSample& imu, double gravity_magnitude);
   std::size_t restarts() const { return restarts_; }
+  /// Time of the first sample of the still window the last initial state came from (the sensor
+  /// rested from then on); NaN before one.
+  double rest_since() const { return rest_since_; }
 
  private:
   StaticInitConfig config_;
   std::vector<ImuSample> window_;
+  double rest_since_ = std::numeric_limits<double>::quiet_NaN();
   std::size_t restarts_ = 0;
 };
 
