@@ -98,6 +98,8 @@ echo "client_rt: ${CLIENT_RT:-none}"
 echo "viz: ${VIZ:-off}"
 VIZ_CLIENT=${VIZ_CLIENT:-build/test/viz/client/viz_client.mjs}
 rss_kb() { awk '/^VmRSS:/ {print $2}' "/proc/$1/status" 2> /dev/null || echo nan; }
+# CPU seconds (user + system) a live process used so far.
+cpu_s() { awk -v hz="$(getconf CLK_TCK)" '{ printf "%.2f\n", ($14 + $15) / hz }' "/proc/$1/stat" 2> /dev/null || echo nan; }
 
 # ---- 2. single process -----------------------------------------------------------------------
 for i in $(seq "$RUN_REPEATS"); do
@@ -144,7 +146,7 @@ for i in $(seq "$RT_REPEATS"); do
     PIDS+=("$v")
     for _ in $(seq 100); do grep -q "on ws://" "$d/logs/fuse-viz.log" && break; sleep 0.1; done
     url=$(grep -o "ws://[0-9.]*:[0-9]*" "$d/logs/fuse-viz.log" | head -1)
-    node "$VIZ_CLIENT" "$url" "$d/viz-client.jsonl" > "$d/logs/viz-client.log" 2>&1 &
+    nice -n "${VIZ_CLIENT_NICE:-0}" node "$VIZ_CLIENT" "$url" "$d/viz-client.jsonl" > "$d/logs/viz-client.log" 2>&1 &
     vc=$!
     PIDS+=("$vc")
     ( sleep "$LEAD_S"; sleep 5; rss_kb "$v" > "$d/viz_rss_start"
@@ -161,9 +163,13 @@ for i in $(seq "$RT_REPEATS"); do
   wait "$bp" || echo "realtime run $i: fuse-bench-pipeline failed (see $d/logs/bench.log)" >&2
   if [ "${VIZ:-off}" != off ]; then
     rss_kb "$v" > "$d/viz_rss_end"
+    cpu_s "$v" > "$d/viz_cpu"
+    cpu_s "$vc" > "$d/viz_client_cpu"
     kill -TERM "$vc" 2> /dev/null || true
     stop_services "$v"
   fi
+  cpu_s "$u" > "$d/update_cpu"
+  cpu_s "$s" > "$d/state_cpu"
   stop_services "$u" "$s" "$m"
 done
 rt() { for i in $(seq "$RT_REPEATS"); do value "$1" "$WORK/rt$i/bench.txt"; done | median; }
@@ -184,9 +190,13 @@ if [ "$RT_REPEATS" -gt 0 ]; then
            $(case "${BENCH_ARGS:-}" in *--observe-scan*) echo scan_hop_latency_median_ms scan_hop_latency_p95_ms ;; esac); do
     echo "$k: $(rt "$k")"
   done
+  echo "update_cpu_s: $(for i in $(seq "$RT_REPEATS"); do cat "$WORK/rt$i/update_cpu"; done | median)"
+  echo "state_cpu_s: $(for i in $(seq "$RT_REPEATS"); do cat "$WORK/rt$i/state_cpu"; done | median)"
   if [ "${VIZ:-off}" != off ]; then
     echo "viz_rss_start_kb: $(for i in $(seq "$RT_REPEATS"); do cat "$WORK/rt$i/viz_rss_start"; done | median)"
     echo "viz_rss_end_kb: $(for i in $(seq "$RT_REPEATS"); do cat "$WORK/rt$i/viz_rss_end"; done | median)"
+    echo "viz_cpu_s: $(for i in $(seq "$RT_REPEATS"); do cat "$WORK/rt$i/viz_cpu"; done | median)"
+    echo "viz_client_cpu_s: $(for i in $(seq "$RT_REPEATS"); do cat "$WORK/rt$i/viz_client_cpu"; done | median)"
     echo "viz_client_messages: $(for i in $(seq "$RT_REPEATS"); do grep -c '"topic"' "$WORK/rt$i/viz-client.jsonl" || true; done | median)"
   fi
 fi

@@ -52,7 +52,7 @@ int main(int argc, char** argv) {
     }
     map_service::MapService map(config.map_server, *participant, ros2, config.ros2.map_period_s);
     service::HealthReporter health(*participant, "fuse-map", config.health.period_s, config.health.instance_window_s, [&] { return map.health(); });
-    if (ros2) health.also_publish([&ros2](const fuse_msgs::Health& h) { ros2->diagnostics(h); });
+    if (ros2) ros2->attach(health);
     // Start-up complete (map loaded, endpoints created): READY; then the watchdog while the
     // worker that journals and applies observations keeps making progress.
     service::Notifier& notify = service::notifier();

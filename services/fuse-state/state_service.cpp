@@ -112,7 +112,7 @@ StateService::StateService(const SystemConfig& config, transport::Participant& p
   if (config.ros2.enabled) {
     ros2_ = std::make_unique<Ros2Output>(participant, config.ros2, Ros2Output::Outputs{true, false, false});
     ros2_->static_transform(config.estimator.T_imu_lidar);
-    health_->also_publish([this](const fuse_msgs::Health& h) { ros2_->diagnostics(h); });
+    ros2_->attach(*health_);
   }
 }
 

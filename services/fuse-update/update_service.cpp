@@ -60,7 +60,7 @@ UpdateService::UpdateService(const SystemConfig& config, transport::Participant&
   health_ = std::make_unique<HealthReporter>(participant, kName, config.health.period_s, config.health.instance_window_s, [this] { return health(); });
   if (config.ros2.enabled) {
     ros2_ = std::make_unique<Ros2Output>(participant, config.ros2, Ros2Output::Outputs{false, true, false});
-    health_->also_publish([this](const fuse_msgs::Health& h) { ros2_->diagnostics(h); });
+    ros2_->attach(*health_);
   }
   logger(kName)->info("session {:016x}", session_);
 }

@@ -80,7 +80,8 @@ void print_summary(const fuse::record::Recorder& r) {
     malformed += t.malformed;
   }
   std::cout << "total: " << messages << " messages, " << bytes << " bytes, " << dropped << " dropped, " << malformed
-            << " malformed, " << r.files().size() << " files, queue peak " << r.queue_peak_bytes() << " bytes\n";
+            << " malformed, " << r.files().size() << " files, queue peak " << r.queue_peak_bytes() << " bytes, "
+            << r.foxglove_skipped() << " recorded but not drawn on the Foxglove channels\n";
   std::cout.flush();
 }
 

@@ -165,8 +165,9 @@ void Recorder::draw(const QueuedSample& s, std::uint64_t log_time) {
     }
   } catch (const std::exception& e) {
     // The sample itself is recorded; only its drawing is missing (a pose that is not a rotation).
-    if (++foxglove_skipped_ == 1 || foxglove_skipped_ % kDropLogEvery == 0) {
-      logger("record")->warn("a sample on '{}' has no Foxglove form ({} so far): {}", topic, foxglove_skipped_, e.what());
+    const std::uint64_t n = ++foxglove_skipped_;
+    if (n == 1 || n % kDropLogEvery == 0) {
+      logger("record")->warn("a sample on '{}' has no Foxglove form ({} so far): {}", topic, n, e.what());
     }
   }
   if (!static_written_ && anchor_) {

@@ -58,6 +58,8 @@ class Recorder {
   std::vector<TopicStats> stats() const;
   std::vector<FileSummary> files() const;
   std::size_t queue_peak_bytes() const { return queue_.peak_bytes(); }
+  /// Samples recorded whose Foxglove form could not be made (not drawn; logged rate-limited).
+  std::uint64_t foxglove_skipped() const { return foxglove_skipped_; }
 
  private:
   struct Counters {
@@ -93,7 +95,7 @@ class Recorder {
   std::optional<FoxgloveRecording> foxglove_;
   bool static_written_ = false;
   std::uint64_t next_map_ns_ = 0, next_trajectory_ns_ = 0, last_log_ns_ = 0;
-  std::uint64_t foxglove_skipped_ = 0;
+  std::atomic<std::uint64_t> foxglove_skipped_{0};
   std::vector<std::unique_ptr<transport::RawReader>> readers_;
   std::thread thread_;
   bool stopped_ = false;

@@ -13,6 +13,7 @@
 #include <chrono>
 #include <deque>
 #include <map>
+#include <mutex>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -104,6 +105,15 @@ struct Server::Impl {
   std::function<void(ChannelId)> subscribed;  // set before clients connect
   std::atomic<bool> stopped{false};
   std::atomic<std::uint64_t> clients{0}, connections{0}, refused{0}, sent{0}, dropped{0}, bad{0};
+  /// Published, not yet handed to the sessions: producers append, and only the first of a burst
+  /// wakes the io thread (a pose and its transform, published together, cost one wake-up).
+  struct Pending {
+    ChannelId channel;
+    std::uint64_t log_time_ns;
+    std::shared_ptr<const std::string> body;
+  };
+  std::mutex pending_mutex;
+  std::vector<Pending> pending;  // pending_mutex
 
   Impl(const ServerConfig& c, std::vector<Channel> ch)
       : config(c), channels(std::move(ch)), subscribers(channels.size()) {}
@@ -389,12 +399,26 @@ void Server::publish(ChannelId channel, std::uint64_t log_time_ns, std::string p
   }
   if (impl_->stopped) return;
   auto body = std::make_shared<const std::string>(std::move(payload));
-  net::post(impl_->io, [impl = impl_.get(), channel, log_time_ns, body] {
-    if (impl->channels[channel - 1].latched) impl->latched[channel] = {log_time_ns, body};
+  {
+    std::lock_guard<std::mutex> lock(impl_->pending_mutex);
+    impl_->pending.push_back({channel, log_time_ns, std::move(body)});
+    if (impl_->pending.size() > 1) return;  // a wake-up is already on its way
+  }
+  net::post(impl_->io, [impl = impl_.get()] {
+    std::vector<Impl::Pending> batch;
+    {
+      std::lock_guard<std::mutex> lock(impl->pending_mutex);
+      batch.swap(impl->pending);
+    }
     // Copy: a failed write closes its session, which leaves the set.
     const std::vector<std::shared_ptr<Session>> sessions(impl->sessions.begin(), impl->sessions.end());
-    for (const auto& session : sessions) {
-      if (const std::uint32_t* sub = session->subscription_of(channel)) session->send(data_frame(*sub, log_time_ns, body));
+    for (const Impl::Pending& p : batch) {
+      if (impl->channels[p.channel - 1].latched) impl->latched[p.channel] = {p.log_time_ns, p.body};
+      for (const auto& session : sessions) {
+        if (const std::uint32_t* sub = session->subscription_of(p.channel)) {
+          session->send(data_frame(*sub, p.log_time_ns, p.body));
+        }
+      }
     }
   });
 }

@@ -41,6 +41,10 @@ HealthReporter::~HealthReporter() {
 
 void HealthReporter::publish_now() {
   HealthSnapshot s = snapshot_();
+  {
+    std::lock_guard<std::mutex> lock(sink_mutex_);
+    if (amend_) amend_(s);
+  }
   const std::string twice = duplicate(service_);
   if (!twice.empty()) {
     if (s.state != "stopping") s.state = "degraded";
@@ -74,9 +78,11 @@ void HealthReporter::publish_now() {
   if (sink_) sink_(m);
 }
 
-void HealthReporter::also_publish(std::function<void(const fuse_msgs::Health&)> sink) {
+void HealthReporter::also_publish(std::function<void(const fuse_msgs::Health&)> sink,
+                                  std::function<void(HealthSnapshot&)> amend) {
   std::lock_guard<std::mutex> lock(sink_mutex_);
   sink_ = std::move(sink);
+  amend_ = std::move(amend);
 }
 
 void HealthReporter::run() {

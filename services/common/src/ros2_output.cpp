@@ -3,7 +3,9 @@
 
 #include <chrono>
 
+#include "fuse/core/logging.hpp"
 #include "fuse/service/convert.hpp"
+#include "fuse/service/health.hpp"
 #include "fuse/transport/ros2.hpp"
 
 namespace fuse::service {
@@ -24,7 +26,7 @@ std::unique_ptr<transport::RawWriter> writer(transport::Participant& p, const st
 }  // namespace
 
 Ros2Output::Ros2Output(transport::Participant& participant, const Ros2Config& config, Outputs outputs)
-    : config_(config) {
+    : config_(config), counters_(logger("ros2")) {
   if (outputs.odometry) {
     odometry_ = writer(participant, config.odometry_topic, ros2::kOdometryType, kMaxSmallBytes, ros2::sensor_data_qos());
     // tf2's own QoS: /tf reliable and volatile (100 deep), /tf_static reliable and transient local.
@@ -65,15 +67,15 @@ void Ros2Output::odometry(const fuse_msgs::StateEstimate& s) {
   const transport::Bytes odom = ros2::encode(m);
   const transport::Bytes tf = ros2::encode_tf({{m.t, config_.world_frame, config_.imu_frame, m.pose}});
   std::lock_guard<std::mutex> lock(mutex_);
-  odometry_->write(odom);
-  tf_->write(tf);
+  write(*odometry_, odom, "odometry");
+  write(*tf_, tf, "tf");
 }
 
 void Ros2Output::static_transform(const Eigen::Isometry3d& T_imu_lidar) {
   if (!tf_static_) return;
   const transport::Bytes tf = ros2::encode_tf({{0.0, config_.imu_frame, config_.lidar_frame, T_imu_lidar}});
   std::lock_guard<std::mutex> lock(mutex_);
-  tf_static_->write(tf);
+  write(*tf_static_, tf, "tf_static");
 }
 
 bool Ros2Output::scan_wanted() const { return scan_ && scan_->matched_readers() > 0; }
@@ -82,14 +84,14 @@ void Ros2Output::scan(double t, const std::vector<float>& xyz_world) {
   if (!scan_) return;
   const transport::Bytes cloud = ros2::encode_cloud(t, config_.world_frame, xyz_world);
   std::lock_guard<std::mutex> lock(mutex_);
-  scan_->write(cloud);
+  write(*scan_, cloud, "scan");
 }
 
 void Ros2Output::map(double t, const std::vector<float>& xyz_world) {
   if (!map_) return;
   const transport::Bytes cloud = ros2::encode_cloud(t, config_.world_frame, xyz_world);
   std::lock_guard<std::mutex> lock(mutex_);
-  map_->write(cloud);
+  write(*map_, cloud, "map");
 }
 
 void Ros2Output::diagnostics(const fuse_msgs::Health& h) {
@@ -106,7 +108,25 @@ void Ros2Output::diagnostics(const fuse_msgs::Health& h) {
   for (const fuse_msgs::Counter& c : h.counters()) status.values.emplace_back(c.name().to_string(), std::to_string(c.value()));
   const transport::Bytes array = ros2::encode_diagnostics(t, {status});
   std::lock_guard<std::mutex> lock(mutex_);
-  diagnostics_->write(array);
+  write(*diagnostics_, array, "diagnostics");
+}
+
+void Ros2Output::write(transport::RawWriter& writer, const transport::Bytes& sample, const char* output) {
+  if (writer.write(sample)) return;
+  counters_.count(std::string("ros2_write_failed_") + output,
+                  fmt::format("the DDS backend refused a ROS 2 {} sample ({} bytes): not published", output, sample.size()));
+}
+
+std::map<std::string, std::uint64_t> Ros2Output::counters() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return counters_.map();
+}
+
+void Ros2Output::attach(HealthReporter& health) {
+  health.also_publish([this](const fuse_msgs::Health& h) { diagnostics(h); },
+                      [this](HealthSnapshot& s) {
+                        for (const auto& [name, value] : counters()) s.counters[name] += value;
+                      });
 }
 
 }  // namespace fuse::service

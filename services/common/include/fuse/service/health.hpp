@@ -38,8 +38,11 @@ class HealthReporter {
   ~HealthReporter();
   /// Publishes one heartbeat now (e.g. on stopping).
   void publish_now();
-  /// Also hands every heartbeat to `sink` after publishing it (e.g. as ROS 2 diagnostics). Thread-safe.
-  void also_publish(std::function<void(const fuse_msgs::Health&)> sink);
+  /// Also hands every heartbeat to `sink` after publishing it (e.g. as ROS 2 diagnostics), and
+  /// lets `amend` add to each snapshot before it is published (that output's own counters).
+  /// Thread-safe.
+  void also_publish(std::function<void(const fuse_msgs::Health&)> sink,
+                    std::function<void(HealthSnapshot&)> amend = {});
   /// Why more than one instance of `service` is alive now (empty: at most one is). Thread-safe.
   std::string duplicate(const std::string& service) const;
 
@@ -60,6 +63,7 @@ class HealthReporter {
   std::unique_ptr<transport::Subscriber<fuse_msgs::Health>> subscriber_;
   std::mutex sink_mutex_;
   std::function<void(const fuse_msgs::Health&)> sink_;  ///< sink_mutex_
+  std::function<void(HealthSnapshot&)> amend_;          ///< sink_mutex_
   std::mutex mutex_;
   std::condition_variable cv_;
   bool stop_ = false;

@@ -5,18 +5,24 @@
 //   fuse-update: the deskewed scan (sensor_msgs/PointCloud2, world frame, sensor-data QoS)
 //   fuse-map:    the whole map (PointCloud2, transient local, at most every ros2.map_period_s)
 //   every one:   its health as diagnostic_msgs/DiagnosticArray on /diagnostics
-// Thread-safe: each writer is used under its own call.
+// A sample the DDS backend refuses is counted by topic (`ros2_write_failed_<output>`) and logged
+// rate-limited; attach() puts those counters into the service's health and sends every heartbeat
+// as diagnostics. Thread-safe.
 #pragma once
 
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
 
+#include "fuse/core/counters.hpp"
 #include "fuse/service/system_config.hpp"
 #include "fuse/transport/msg_traits.hpp"
 
 namespace fuse::service {
+
+class HealthReporter;
 
 class Ros2Output {
  public:
@@ -39,11 +45,19 @@ class Ros2Output {
   /// degraded WARN, anything else ERROR; the counters as key/values), stamped with the host's
   /// UTC time (a heartbeat has no sensor time).
   void diagnostics(const fuse_msgs::Health& h);
+  /// Publishes `health`'s heartbeats as diagnostics and adds this output's counters to them.
+  void attach(HealthReporter& health);
+  /// Samples refused by the DDS backend, by output (odometry, tf, tf_static, scan, map, diagnostics).
+  std::map<std::string, std::uint64_t> counters() const;
 
  private:
+  /// Writes under the lock; a refused sample is counted (caller holds mutex_).
+  void write(transport::RawWriter& writer, const transport::Bytes& sample, const char* output);
+
   Ros2Config config_;
   std::unique_ptr<transport::RawWriter> odometry_, tf_, tf_static_, scan_, map_, diagnostics_;
-  std::mutex mutex_;
+  mutable std::mutex mutex_;
+  Counters counters_;  ///< mutex_
 };
 
 }  // namespace fuse::service
