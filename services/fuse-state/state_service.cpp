@@ -178,7 +178,7 @@ void StateService::on_imu(const fuse_msgs::ImuSample& msg) {
       return;
     }
     imu_buffer_.push_back(imu);
-    host_clock_.observe_now(imu.t);
+    host_clock_.observe_now(tracker_.state_time(imu.t));  // the sensor clock queries use: the state's
     while (imu_buffer_.size() > 2 && imu_buffer_.back().t - imu_buffer_.front().t > config_.state.imu_buffer_s) {
       imu_buffer_.pop_front();
     }
@@ -203,7 +203,7 @@ bool StateService::catching_up() const {
 }
 
 std::optional<fuse_msgs::StateEstimate> StateService::feed(const ImuSample& imu) {
-  if (tracker_.initialised() && imu.t <= live_since_t_) {
+  if (tracker_.initialised() && tracker_.state_time(imu.t) <= live_since_t_) {
     // Held IMU from before the restored posterior, arriving after it (a writer's history is
     // delivered over a second or so after a restart): history, not a fault of the stream.
     counters_.add("imu_before_restore");
@@ -301,9 +301,11 @@ void StateService::go_live() {
 
 void StateService::restore_from(const Posterior& post, const std::string& source) {
   // The held measurement at t is the last IMU sample at or before t.
+  // Buffered stamps are on the IMU's clock: t_imu − t_d on the state's.
+  const double td = post.x.td;
   std::optional<ImuSample> held;
   for (const ImuSample& imu : imu_buffer_) {
-    if (imu.t > post.t) break;
+    if (imu.t - td > post.t) break;
     held = imu;
     held->t = post.t;
   }
@@ -315,8 +317,8 @@ void StateService::restore_from(const Posterior& post, const std::string& source
   std::size_t replayed = 0;
   double first_after = -1.0;
   for (const ImuSample& imu : imu_buffer_) {
-    if (imu.t <= post.t) continue;
-    if (first_after < 0.0) first_after = imu.t;
+    if (imu.t - td <= post.t) continue;
+    if (first_after < 0.0) first_after = imu.t - td;
     tracker_.ingest(imu);
     ++replayed;
   }
@@ -335,7 +337,7 @@ void StateService::restore_from(const Posterior& post, const std::string& source
     logger(kName)->info(
         "recovered from {} at t={:.3f}; re-propagated {} buffered IMU samples up to t={:.3f} ({:.2f} s{}); "
         "relocalizing until a scan confirms it",
-        source, post.t, replayed, imu_buffer_.back().t, imu_buffer_.back().t - post.t,
+        source, post.t, replayed, imu_buffer_.back().t - td, imu_buffer_.back().t - td - post.t,
         first_after > post.t + config_.estimator.divergence.max_imu_gap
             ? fmt::format(", of which a {:.2f} s data gap coasted", first_after - post.t)
             : "");

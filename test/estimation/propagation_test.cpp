@@ -174,7 +174,8 @@ TEST(Propagation, CovarianceMatchesMonteCarlo) {
   NavState x_hat = test::random_state(rng);
   StateCovariance P0 = StateCovariance::Zero();
   const StateVector std0 = (StateVector() << 0.02, 0.02, 0.02, 0.01, 0.01, 0.01, 0.01, 0.01, 0.01, 0.01, 0.01, 0.01,
-                            0.05, 0.05, 0.05, 2e-3, 2e-3, 2e-3, 0.05, 0.05, 0.05, 0.01, 0.01).finished();
+                            0.01, 0.05, 0.05, 0.05, 2e-3, 2e-3, 2e-3, 0.05, 0.05, 0.05, 0.01, 0.01)
+                               .finished();
   P0.diagonal() = std0.cwiseProduct(std0);
   std::vector<Eigen::Vector3d> gyro, accel;
   for (int k = 0; k < kSteps; ++k) {

@@ -16,6 +16,7 @@ void expect_states_equal(const NavState& a, const NavState& b, double tol) {
   EXPECT_LT((a.R - b.R).norm(), tol);
   EXPECT_LT((a.R_IL - b.R_IL).norm(), tol);
   EXPECT_LT((a.p_IL - b.p_IL).norm(), tol);
+  EXPECT_LT(std::abs(a.td - b.td), tol);
   EXPECT_LT((a.v - b.v).norm(), tol);
   EXPECT_LT((a.bg - b.bg).norm(), tol);
   EXPECT_LT((a.ba - b.ba).norm(), tol);

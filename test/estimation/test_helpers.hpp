@@ -26,6 +26,7 @@ inline NavState random_state(std::mt19937& rng) {
   x.R = random_rotation(rng);
   x.R_IL = random_rotation(rng);
   x.p_IL = random_vector(rng, 0.3);
+  x.td = random_vector(rng, 0.02).x();
   x.v = random_vector(rng, 2.0);
   x.bg = random_vector(rng, 0.01);
   x.ba = random_vector(rng, 0.1);

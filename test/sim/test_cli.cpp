@@ -126,6 +126,8 @@ TEST(SimCli, RejectsBadArgumentsNamingTheFlag) {
       {{"--scenario", "corridor", "--seed", "1", "--laps", "0", "--out", "x"}, "--laps: must be between 1 and 100"},
       {{"--scenario", "corridor", "--seed", "1", "--laps", "101", "--out", "x"}, "--laps: must be between 1 and 100"},
       {{"--scenario", "room", "--seed", "1", "--laps", "2", "--out", "x"}, "--laps: only the corridor"},  // no loop
+      {{"--scenario", "room", "--seed", "1", "--imu-time-offset", "2", "--out", "x"}, "--imu-time-offset: expected a"},
+      {{"--scenario", "room", "--seed", "1", "--imu-time-offset", "5ms", "--out", "x"}, "--imu-time-offset: expected"},
   };
   for (const auto& [args, message] : bad) {
     const Parsed p = parse(args);

@@ -187,6 +187,7 @@ inline fuse_msgs::Correction make_correction(int seed) {
   m.gyro_bias(vec(seed, 4));
   m.accel_bias(vec(seed, 5));
   m.gravity(vec(seed, 6));
+  m.time_offset(v(seed, 7) * 1e-5);
   for (std::size_t i = 0; i < m.covariance().size(); ++i) m.covariance()[i] = v(seed, static_cast<int>(i));
   m.constraints_kept(1234);
   m.constraints_rejected(56);
@@ -333,10 +334,11 @@ inline fuse_msgs::HistoryReply make_history_reply(int seed) {
     e.gyro_bias(vec(seed, i + 3));
     e.accel_bias(vec(seed, i + 4));
     e.gravity(vec(seed, i + 5));
+    e.time_offset(v(seed, i + 40) * 1e-5);
     e.gyro(vec(seed, i + 6));
     e.accel(vec(seed, i + 7));
     if (i == 2) {  // an entry with a step (a coasted gap): its sequence and levelling travel too
-      for (int k = 0; k < 23; ++k) e.step_q().push_back(v(seed, i + 8 + k));
+      for (int k = 0; k < 24; ++k) e.step_q().push_back(v(seed, i + 8 + k));
       e.step_level_accel(vec(seed, i + 31));
       e.step_level_sigma(v(seed, i + 32));
       e.coasting(true);

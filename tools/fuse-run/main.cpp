@@ -108,6 +108,7 @@ int main(int argc, char** argv) {
   std::cout << "scans: " << s.scans << "\nscans_updated: " << s.scans_updated << "\nimu_samples: " << s.imu_samples
             << "\nscan_time_mean_ms: " << s.mean_ms << "\nscan_time_p95_ms: " << s.p95_ms
             << "\nscan_time_max_ms: " << s.max_ms << "\n";
+  std::cout << "time_offset_s: " << s.time_offset << "\n";
   for (const auto& [reason, n] : s.input_rejected) std::cout << "input_rejected_" << reason << ": " << n << "\n";
   for (const auto& [reason, n] : s.estimator_counts) std::cout << "estimator_" << reason << ": " << n << "\n";
   if (s.initialised) {

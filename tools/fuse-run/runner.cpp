@@ -3,9 +3,11 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <limits>
 
 #include "fuse/core/logging.hpp"
 #include "fuse/core/progress.hpp"
@@ -42,7 +44,7 @@ void write_diagnostics(const std::string& path, const std::vector<ScanReport>& r
   std::ofstream f(path);
   f << "scan,t,updated,constraints,rejected_no_neighbors,rejected_not_planar,rejected_screening,"
        "min_eig_translation,min_eig_rotation,min_eig_ratio,min_gamma,iterations,converged,map_points,map_inserted,"
-       "recovery,fit,match_fit,prior_position_std,prior_rotation_std,tracking\n";
+       "recovery,fit,match_fit,prior_position_std,prior_rotation_std,time_offset_s,tracking\n";
   for (std::size_t i = 0; i < reports.size(); ++i) {
     const auto& r = reports[i];
     f << i << ',' << std::fixed << std::setprecision(6) << r.t << ',' << r.updated << ',' << r.constraints << ','
@@ -50,7 +52,7 @@ void write_diagnostics(const std::string& path, const std::vector<ScanReport>& r
       << std::scientific << std::setprecision(4) << r.min_eig_translation << ',' << r.min_eig_rotation << ',' << r.min_eig_ratio << ','
       << std::fixed << r.min_gamma << ',' << r.iterations << ',' << r.converged << ',' << r.map_points << ','
       << r.map_inserted << ',' << r.recovery << ',' << r.fit << ',' << r.match_fit << ',' << r.prior_position_std
-      << ',' << r.prior_rotation_std << ',' << to_string(status[i]) << '\n';
+      << ',' << r.prior_rotation_std << ',' << std::setprecision(6) << r.time_offset << ',' << to_string(status[i]) << '\n';
   }
 }
 
@@ -192,6 +194,22 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
     scans_refused = source->stats().scans_refused;
   };
   Progress progress("run", source->expected_events());
+  std::deque<LidarScan> waiting;  // at most one: a scan whose end the IMU has not reached yet
+  double imu_reached = -std::numeric_limits<double>::infinity();  // the newest sample, on the state's clock
+  auto process_scan = [&] {
+    const LidarScan scan = std::move(waiting.front());
+    waiting.pop_front();
+    const ScanReport report = estimator.ingest(scan);
+    if (!estimator.initialised()) return;
+    const StateQuery q = estimator.query(scan.t_end);
+    if (!q.ok()) return;
+    reports.push_back(report);
+    // Not yet located in the loaded map: relocalizing, whatever the session's own tracking says.
+    status.push_back(estimator.localized() ? estimator.tracking().status() : TrackingStatus::kRelocalizing);
+    if (report.updated) ++summary.scans_updated;
+    summary.scan_ms.push_back(report.ms_total);
+    emit(pose_of(q), false);
+  };
   try {
     while (source->next(ev)) {
       note_refused_scans();
@@ -201,22 +219,23 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
       if (ev.kind == io::SensorEvent::Kind::kImu) {
         ++summary.imu_samples;
         estimator.ingest(ev.imu);
-        const StateQuery q = estimator.query(ev.imu.t);
+        // At the sample's place on the state's clock (the LiDAR's: its stamp less the time offset).
+        const double t = estimator.state_time(ev.imu.t);
+        const StateQuery q = estimator.query(t);
         if (q.ok()) emit(pose_of(q), true);
+        imu_reached = t;
+        while (!waiting.empty() && waiting.front().t_end <= imu_reached) process_scan();
         continue;
       }
       ++summary.scans;
-      const ScanReport report = estimator.ingest(ev.scan);
-      if (!estimator.initialised()) continue;
-      const StateQuery q = estimator.query(ev.scan.t_end);
-      if (!q.ok()) continue;
-      reports.push_back(report);
-      // Not yet located in the loaded map: relocalizing, whatever the session's own tracking says.
-      status.push_back(estimator.localized() ? estimator.tracking().status() : TrackingStatus::kRelocalizing);
-      if (report.updated) ++summary.scans_updated;
-      summary.scan_ms.push_back(report.ms_total);
-      emit(pose_of(q), false);
+      // A scan waits until the IMU covers its end on the state's clock, as fuse-state waits for it:
+      // with the IMU's clock behind, its samples up to the scan end come after the scan. At most
+      // one scan period: a scan behind it means the IMU is silent (then it coasts, as it did).
+      while (!waiting.empty()) process_scan();
+      waiting.push_back(std::move(ev.scan));
+      if (waiting.front().t_end <= imu_reached) process_scan();
     }
+    while (!waiting.empty()) process_scan();
     note_refused_scans();
   } catch (const DivergenceError& e) {
     summary.diverged = true;
@@ -242,6 +261,7 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
     MapStorage::write_snapshot_file(config.save_map, map, meta);
     log->info("map saved to {}: {} points", config.save_map, map.num_points());
   }
+  summary.time_offset = estimator.initialised() ? estimator.latest().x.td : config.estimator.time_offset.initial_s;
   if (const MapLocalization* L = estimator.map_localization()) {
     summary.searches = L->searches();
     summary.search_s = L->search_seconds();

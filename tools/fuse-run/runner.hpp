@@ -50,6 +50,9 @@ struct RunSummary {
   double search_s = 0.0;          ///< wall time of the searches (a thread of their own unless blocking)
   std::string localization;       ///< MapLocalization::describe at the end
   bool initial_pose_refused = false;
+  /// The LiDAR-IMU time offset at the end (s, t_imu = t_lidar + it): estimator.time_offset's
+  /// initial_s, or its estimate when estimated.
+  double time_offset = 0.0;
   /// The run diverged by a measure computable without truth (DivergenceError, lost at the end or
   /// for longer than estimator.tracking.max_lost_s): fuse-run exits 3.
   bool diverged = false;

@@ -26,6 +26,16 @@ void InitialCovarianceConfig::load(ConfigNode& node) {
   node.finish();
 }
 
+void TimeOffsetConfig::load(ConfigNode& node) {
+  node.get("initial_s", initial_s).get("estimate", estimate).get("std_s", std_s).get("max_s", max_s);
+  node.get("random_walk", random_walk);
+  node.check(std::isfinite(max_s) && max_s > 0.0 && max_s <= 1.0, "max_s", "must be in (0, 1] s");
+  node.check(std::isfinite(initial_s) && std::abs(initial_s) <= max_s, "initial_s", "must be within ±max_s");
+  node.check(std::isfinite(std_s) && std_s > 0.0 && std_s <= 1.0, "std_s", "must be in (0, 1] s");
+  node.check(std::isfinite(random_walk) && random_walk >= 0.0, "random_walk", "must be finite and >= 0");
+  node.finish();
+}
+
 void DivergenceConfig::load(ConfigNode& node) {
   node.get("max_position_std", max_position_std).get("max_scans_without_constraints", max_scans_without_constraints);
   node.get("max_imu_gap", max_imu_gap).get("gap_accel_std", gap_accel_std).get("gap_gyro_std", gap_gyro_std);
@@ -96,6 +106,8 @@ void EstimatorConfig::load(ConfigNode& node) {
   load_section(node, "spatial_index", index);
   load_section(node, "map", map);
   load_section(node, "initial_covariance", initial_covariance);
+  load_section(node, "time_offset", time_offset);
+  imu.time_offset_random_walk = time_offset.estimate ? time_offset.random_walk : 0.0;
   load_section(node, "divergence", divergence);
   load_section(node, "recovery", recovery);
   load_section(node, "clock", clock);

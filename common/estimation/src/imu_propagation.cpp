@@ -65,6 +65,7 @@ void propagate(NavState& x, StateCovariance* P, const Eigen::Vector3d& gyro, con
     cov.block<3, 3>(Idx::kVel, Idx::kVel) += qa * Eigen::Matrix3d::Identity();
     cov.block<3, 3>(Idx::kBg, Idx::kBg) += qbg * Eigen::Matrix3d::Identity();
     cov.block<3, 3>(Idx::kBa, Idx::kBa) += qba * Eigen::Matrix3d::Identity();
+    cov(Idx::kTimeOffset, Idx::kTimeOffset) += noise.time_offset_random_walk * noise.time_offset_random_walk * dt;
     cov = 0.5 * (cov + cov.transpose()).eval();
   } else if (P != nullptr) {
     // Ablation "without covariance propagation": every update starts from the same fixed prior

@@ -110,6 +110,14 @@ UpdateResult LidarUpdater::update(MeasurementModel& model, StateHistory& history
   StateQuery prior = history.query(t);
   UpdateBackend& backend = needs_recovery(prior.P) ? *recovery_backend_ : *backend_;
   UpdateResult result = backend.update(prior.x, prior.P, model);
+  const double bound = config_.time_offset.max_s;
+  if (result.updated && std::abs(prior.x.td) > bound) {
+    counters_.count("time_offset_at_bound",
+                    fmt::format("the LiDAR-IMU time offset estimate {:+.4f} s at t={:.6f} is beyond "
+                                "estimator.time_offset.max_s = {} s: held at the bound",
+                                prior.x.td, t, bound));
+    prior.x.td = std::clamp(prior.x.td, -bound, bound);
+  }
   if (result.updated) history.correct(t, prior.x, prior.P);
   return result;
 }
@@ -176,6 +184,7 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
   // 3. Associate + update at the scan end (the first scan only seeds the map).
   t_stage = Clock::now();
   NavState x = prior.x;
+  report.time_offset = prior.x.td;
   report.prior_position_std = largest_std(prior.P, Idx::kPos);
   report.prior_rotation_std = largest_std(prior.P, Idx::kRot);
   report.recovery = map_->size() > 0 && needs_recovery(prior.P);
@@ -191,10 +200,12 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
       result = relocalise(history, scan.t_end, report);
     } else {
       PointToPlaneModel model(config_.measurement, points_L_, *map_, associator_, constraints_);
+      if (prior.P(Idx::kTimeOffset, Idx::kTimeOffset) > 0.0) model.set_time_offset_motion(prior.omega, prior.x.td);
       result = update(model, history, scan.t_end);
       report.ms_association = model.association_ms();
     }
     x = history.query(scan.t_end).x;
+    report.time_offset = x.td;
     if (!report.recovery && result.updated) report.fit = fit_of(truncated_cost(x));  // relocalise sets its own
     if (result.updated) report.match_fit = match_fit(x);
     report.updated = result.updated;
@@ -211,9 +222,11 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
   }
   report.ms_update = ms_since(t_stage) - report.ms_association;
 
-  // 4. Map policy on the world-frame points at the posterior.
+  // 4. Map policy on the world-frame points at the posterior, where the scan is seen with the
+  // offset the update settled on.
   t_stage = Clock::now();
-  T_WL_ = x.T_WI() * x.T_IL();
+  const NavState seen = moved_along(x, prior.omega, x.td - prior.x.td);
+  T_WL_ = seen.T_WI() * seen.T_IL();
   const Eigen::Isometry3d& T_WL = T_WL_;
   const Eigen::Matrix3f R = T_WL.linear().cast<float>();
   const Eigen::Vector3f t = T_WL.translation().cast<float>();

@@ -173,9 +173,21 @@ bool StateHistory::ensure_entry(double t) {
 void StateHistory::correct(double t, const NavState& x, const StateCovariance& P) {
   const std::size_t i = find_at_or_before(t);
   refresh_to(i);  // what lies before the correction must not be recomputed over it later
+  const double moved = x.td - entries_[i].x.td;
   entries_[i].x = x;
   entries_[i].P = P;
   entries_[i].step = EntryStep{};  // the posterior includes it
+  if (moved != 0.0) {
+    // The IMU samples after t were placed with the old time offset (t = t_imu − t_d): they move
+    // by −Δt_d, and those that land at or before t are dropped (t holds their time now).
+    std::size_t kept = i + 1;
+    for (std::size_t k = i + 1; k < entries_.size(); ++k) {
+      entries_[k].t -= moved;
+      if (entries_[k].t > entries_[i].t + kSameTime) entries_[kept++] = entries_[k];
+    }
+    entries_.erase(entries_.begin() + static_cast<std::ptrdiff_t>(kept), entries_.end());
+    stale_from_ = std::min(stale_from_, entries_.size());
+  }
   repropagate_from(i);
   if (stale_entries() <= kEagerRefresh) refresh_to(entries_.size() - 1);
   last_correction_t_ = std::max(last_correction_t_, t);

@@ -40,8 +40,10 @@ bool StateTracker::confirm_jump(double t) {
 void StateTracker::apply_decisions() {
   // Decisions come in push order, one per sample pushed: each takes its sample from the front.
   for (const TimeGate::Decision& d : decisions_) {
-    const ImuSample sample = gated_.front();
+    // The time check judges the IMU's own clock; the sample is used on the state's.
+    ImuSample sample = gated_.front();
     gated_.pop_front();
+    sample.t = state_time(sample.t);
     switch (d.verdict) {
       case TimeGate::Verdict::kAccept:
         use(sample);
@@ -154,6 +156,8 @@ void StateTracker::initialise(const NavState& x0_in, const ImuSample& imu) {
     set(Idx::kExtPos, 3, c.extrinsic_translation_std);
   }
   if (config_.estimate_gravity) set(Idx::kGrav, 2, c.gravity_std);
+  x0.td = config_.time_offset.initial_s;
+  if (config_.time_offset.estimate) set(Idx::kTimeOffset, 1, config_.time_offset.std_s);
   history_.reset(imu.t, x0, P, imu, initializer_.rest_since());
   logger("estimator")->info("initialised at t={:.3f}: gyro bias [{:.5f} {:.5f} {:.5f}] rad/s after {} restarts", imu.t,
                             x0.bg.x(), x0.bg.y(), x0.bg.z(), initializer_.restarts());
@@ -262,7 +266,7 @@ void StateTracker::restore(double t, const NavState& x, const StateCovariance& P
     history_.mark_newest_coasting();
   }
   last_imu_t_ = std::max(last_imu_t_, t);
-  gate_.reset(last_imu_t_);
+  gate_.reset(last_imu_t_ + x.td);  // the time check runs on the IMU's clock
   gated_.clear();
   coasted_ = false;
   events_.push_back({TrackingEvent::kRestart, t});

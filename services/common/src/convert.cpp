@@ -129,6 +129,7 @@ fuse_msgs::Correction to_msg(const Posterior& post) {
   m.gyro_bias(v3(post.x.bg));
   m.accel_bias(v3(post.x.ba));
   m.gravity(v3(post.x.g));
+  m.time_offset(post.x.td);
   for (int r = 0; r < kStateDim; ++r) {
     for (int c = 0; c < kStateDim; ++c) m.covariance()[static_cast<std::size_t>(r * kStateDim + c)] = post.P(r, c);
   }
@@ -160,6 +161,9 @@ Posterior from_msg(const fuse_msgs::Correction& m) {
   post.x.ba = finite_v3(m.accel_bias(), "correction_invalid", "accel bias");
   post.x.g = finite_v3(m.gravity(), "correction_invalid", "gravity");
   require(post.x.g.norm() > 1.0, "correction_invalid", "gravity is not a gravity vector");
+  post.x.td = m.time_offset();
+  require(std::isfinite(post.x.td) && std::abs(post.x.td) <= 1.0, "correction_invalid",
+          "time offset is not finite or beyond 1 s");
   for (int r = 0; r < kStateDim; ++r) {
     for (int c = 0; c < kStateDim; ++c) post.P(r, c) = m.covariance()[static_cast<std::size_t>(r * kStateDim + c)];
   }
@@ -206,6 +210,7 @@ fuse_msgs::HistoryEntry to_msg(const StateHistory::Entry& e) {
   m.gyro_bias(v3(e.x.bg));
   m.accel_bias(v3(e.x.ba));
   m.gravity(v3(e.x.g));
+  m.time_offset(e.x.td);
   m.gyro(v3(e.gyro));
   m.accel(v3(e.accel));
   m.coasting(e.coasting);
@@ -229,6 +234,8 @@ StateHistory::Entry from_msg(const fuse_msgs::HistoryEntry& m) {
   e.x.bg = finite_v3(m.gyro_bias(), "history_invalid", "gyro bias");
   e.x.ba = finite_v3(m.accel_bias(), "history_invalid", "accel bias");
   e.x.g = finite_v3(m.gravity(), "history_invalid", "gravity");
+  e.x.td = m.time_offset();
+  require(std::isfinite(e.x.td) && std::abs(e.x.td) <= 1.0, "history_invalid", "time offset is not finite or beyond 1 s");
   e.gyro = finite_v3(m.gyro(), "history_invalid", "gyro");
   e.accel = finite_v3(m.accel(), "history_invalid", "accel");
   e.P = StateCovariance::Zero();

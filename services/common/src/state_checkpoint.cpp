@@ -16,7 +16,7 @@ namespace fuse::service {
 
 namespace {
 constexpr char kMagic[8] = {'F', 'U', 'S', 'E', 'S', 'C', 'K', 'P'};
-constexpr std::uint32_t kVersion = 2;  // 2: the Correction carries its world frame
+constexpr std::uint32_t kVersion = 3;  // 2: the Correction carries its world frame; 3: the time offset (24-dim state)
 constexpr std::size_t kHeaderSize = sizeof(kMagic) + 3 * sizeof(std::uint32_t);
 
 void put_u32(std::string& out, std::uint32_t v) {

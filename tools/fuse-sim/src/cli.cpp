@@ -19,6 +19,7 @@ namespace {
 constexpr double kMaxDurationS = 1e5;    // sanity bound for --duration
 constexpr std::uint64_t kMaxLaps = 100;  // sanity bound for --laps
 constexpr double kMinDurationS = 0.1;    // one LiDAR frame
+constexpr double kMaxImuTimeOffsetS = 1.0;  // sanity bound for --imu-time-offset (real offsets: ms)
 
 /// A value that does not check; parse_arguments prints it as a usage error (exit code 2).
 class BadValue : public std::runtime_error {
@@ -28,7 +29,7 @@ class BadValue : public std::runtime_error {
 
 /// The options as typed: CLI11 stores the text, the checks below turn it into SimOptions.
 struct Given {
-  std::string scenario, seed, world_seed, duration, laps, start_at, lidar, format, out;
+  std::string scenario, seed, world_seed, duration, laps, start_at, lidar, format, out, imu_time_offset;
 };
 
 bool given(const CLI::App& app, const char* flag) { return app.count(flag) > 0; }
@@ -69,6 +70,10 @@ void add_options(CLI::App& app, Given& g) {
                  "the ground truth's frame are those of --world-seed, so a map made by one walk serves another")
       ->type_name("D");
   app.add_option("--lidar", g.lidar, "mid360 (default) or spinning32")->type_name("MODEL");
+  app.add_option("--imu-time-offset", g.imu_time_offset,
+                 "stamp every IMU sample S seconds after its true time (an IMU clock ahead of the LiDAR's; "
+                 "negative: behind), at most 1 s either way (default 0); scans and ground truth keep the true time")
+      ->type_name("S");
   app.add_option("--format", g.format, "mcap (DIR/recording.mcap, default) or seqdir (a sequence directory in DIR)")
       ->type_name("mcap|seqdir");
   app.add_option("--out", g.out,
@@ -114,6 +119,15 @@ void check_numbers(const CLI::App& app, const Given& g, SimOptions& o) {
     if (g.start_at.empty() || end == g.start_at.c_str() || *end != '\0' || errno == ERANGE || !std::isfinite(v) || v < 0.0)
       throw BadValue("--start-at: expected a non-negative number of metres, got '" + g.start_at + "'");
     o.start_at_m = v;
+  }
+  if (given(app, "--imu-time-offset")) {
+    errno = 0;
+    char* end = nullptr;
+    const double v = std::strtod(g.imu_time_offset.c_str(), &end);
+    if (g.imu_time_offset.empty() || end == g.imu_time_offset.c_str() || *end != '\0' || errno == ERANGE ||
+        !std::isfinite(v) || std::abs(v) > kMaxImuTimeOffsetS)
+      throw BadValue("--imu-time-offset: expected a number of seconds between -1 and 1, got '" + g.imu_time_offset + "'");
+    o.imu_time_offset_s = v;
   }
 }
 

@@ -163,6 +163,7 @@ void write_scenario_yaml(const std::string& file, const SimOptions& o, const Sce
   y << YAML::Key << "laps" << YAML::Value << o.laps;
   y << YAML::Key << "start_at_m" << YAML::Value << o.start_at_m;
   y << YAML::Key << "format" << YAML::Value << (o.format == OutputFormat::kMcap ? "mcap" : "seqdir");
+  y << YAML::Key << "imu_time_offset_s" << YAML::Value << o.imu_time_offset_s;
   y << YAML::Key << "time" << YAML::Value << YAML::BeginMap;
   y << YAML::Key << "t0_s" << YAML::Value << tr.t_begin() << YAML::Key << "duration_s" << YAML::Value << f.duration_s
     << YAML::Key << "scenario_duration_s" << YAML::Value << f.full_duration_s << YAML::Key << "scans" << YAML::Value
@@ -281,14 +282,26 @@ SimSummary run_simulation(const SimOptions& o) {
   double travelled = 0.0, next_progress = kProgressPeriodS;
   auto write_imu_until = [&](std::size_t last) {
     for (; imu_next <= last && imu_next < n_imu; ++imu_next) {
-      const TrajectoryState s = tr.state(tr.t_begin() + static_cast<double>(imu_next) / imu_cfg.rate_hz);
-      output.write(imu.measure(s));
+      const double t_true = tr.t_begin() + static_cast<double>(imu_next) / imu_cfg.rate_hz;
+      const TrajectoryState s = tr.state(t_true);
+      ImuSample m = imu.measure(s);
+      if (o.imu_time_offset_s != 0.0) m.t = t_true + o.imu_time_offset_s;  // the IMU's clock (--imu-time-offset)
+      output.write(m);
       if (!groundtruth.empty()) travelled += (s.p - groundtruth.back().p).norm();
       groundtruth.push_back(to_pose(s));
     }
   };
   for (std::size_t k = 0; k < n_scans; ++k) {
-    write_imu_until((k + 1) * static_cast<std::size_t>(imu_per_scan));  // IMU up to the scan end first
+    if (o.imu_time_offset_s == 0.0) {
+      write_imu_until((k + 1) * static_cast<std::size_t>(imu_per_scan));  // IMU up to the scan end first
+    } else {
+      // In stamp order: the samples stamped (true time + offset) at or before the scan end.
+      const double t_end = tr.t_begin() + static_cast<double>(k + 1) * lidar.frame_period_s;
+      while (imu_next < n_imu &&
+             tr.t_begin() + static_cast<double>(imu_next) / imu_cfg.rate_hz + o.imu_time_offset_s <= t_end) {
+        write_imu_until(imu_next);
+      }
+    }
     const LidarScan scan = lidar_sim.scan(k, tr.t_begin());
     points += scan.points.size();
     output.write(scan, tr);

@@ -42,6 +42,8 @@ class Estimator {
   UpdateResult update(MeasurementModel& model, double t) { return updater_.update(model, tracker_.history(), t); }
   /// x̂(t): state and covariance at any time the history covers.
   StateQuery query(double t) const { return tracker_.history().query(t); }
+  /// An IMU stamp on the state's clock, the LiDAR's (less the LiDAR-IMU time offset).
+  double state_time(double t_imu) const { return tracker_.state_time(t_imu); }
 
   bool initialised() const { return tracker_.initialised(); }
   /// x̂ at the newest time the history holds (status kNotInitialised before initialisation).

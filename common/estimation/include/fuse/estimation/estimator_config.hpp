@@ -151,6 +151,18 @@ struct RecoveryConfig {
   void load(ConfigNode& node);
 };
 
+/// The LiDAR-IMU time offset t_d (t_imu = t_lidar + t_d): a sensor pair without hardware sync
+/// stamps its scans and IMU samples on two clocks. Scans are placed at their stamp plus the
+/// current estimate; estimated, it is part of the state with its own covariance.
+struct TimeOffsetConfig {
+  double initial_s = 0.0;      ///< the offset assumed at the start (s)
+  bool estimate = false;       ///< estimate it online (false: initial_s stays)
+  double std_s = 0.02;         ///< prior σ when estimated (s)
+  double max_s = 0.1;          ///< bound: an estimate beyond ±max_s is held at it and counted
+  double random_walk = 1e-4;   ///< s/√s: how fast the offset may drift (clock drift, jitter)
+  void load(ConfigNode& node);
+};
+
 struct EstimatorConfig {
   double gravity_magnitude = 9.81;
   bool estimate_extrinsic = false;
@@ -166,6 +178,7 @@ struct EstimatorConfig {
   SpatialIndexConfig index;
   MapPolicyConfig map;
   InitialCovarianceConfig initial_covariance;
+  TimeOffsetConfig time_offset;
   DivergenceConfig divergence;
   RecoveryConfig recovery;
   TimeGateConfig clock;      ///< time checks of the IMU and scan streams

@@ -22,6 +22,9 @@ struct ImuNoiseConfig {
   /// Ablation switch. false: no F·P·Fᵀ + G·Q·Gᵀ; the prior of every update is instead the fixed
   /// covariance below (pose, velocity and bias blocks; others keep their values).
   bool propagate_covariance = true;
+  /// s/√s: random walk of the LiDAR-IMU time offset (not a key of this section: set from
+  /// estimator.time_offset, 0 while the offset is not estimated, which keeps it fixed).
+  double time_offset_random_walk = 0.0;
   double fixed_position_std = 0.02;     ///< m
   double fixed_rotation_std = 0.005;    ///< rad
   double fixed_velocity_std = 0.1;      ///< m/s

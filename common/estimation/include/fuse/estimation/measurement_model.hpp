@@ -9,8 +9,8 @@
 
 namespace fuse {
 
-/// The error-state block observed by LiDAR constraints: [δp, δθ, δθ_IL, δp_IL] = δx[0:12].
-inline constexpr int kObsDim = 12;
+/// The error-state block observed by LiDAR constraints: [δp, δθ, δθ_IL, δp_IL, δt_d] = δx[0:13].
+inline constexpr int kObsDim = 13;
 using ObsMatrix = Eigen::Matrix<double, kObsDim, kObsDim>;
 using ObsVector = Eigen::Matrix<double, kObsDim, 1>;
 

@@ -28,6 +28,7 @@ struct ScanReport {
   /// The same over the points that have a constraint only: how well the matched points lie on
   /// their planes, whatever share of the scan found a plane (an open scene leaves many without).
   double match_fit = 0.0;
+  double time_offset = 0.0;     ///< s: the LiDAR-IMU time offset after the update (t_imu = t_lidar + it)
   double prior_position_std = 0.0;  ///< m: largest σ of the prior position at the scan end
   double prior_rotation_std = 0.0;  ///< rad: largest σ of the prior rotation
   double min_eig_translation = 0.0, min_eig_rotation = 0.0, min_gamma = 1.0, min_eig_ratio = 1.0;

@@ -1,17 +1,20 @@
 // The LiDAR-inertial state on its manifold (DESIGN §1):
-//   x = (p_WI, R_WI, R_IL, p_IL, v_WI, b_g, b_a, g ∈ S²)
-// and its 23-dimensional error state δx, ordered as the Index constants below. Rotations use
+//   x = (p_WI, R_WI, R_IL, p_IL, t_d, v_WI, b_g, b_a, g ∈ S²)
+// and its 24-dimensional error state δx, ordered as the Index constants below. Rotations use
 // right perturbations (R = R̂·Exp(δθ)); gravity uses a 2-D tangent basis of the sphere |g| = const.
+// t_d is the LiDAR-IMU time offset, t_imu = t_lidar + t_d: the state runs on the IMU's clock, and a
+// scan stamped t on the LiDAR's is placed at t + t_d (docs/architecture.md, "Time offset").
 #pragma once
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cmath>
 
 #include "fuse/core/so3.hpp"
 
 namespace fuse {
 
-inline constexpr int kStateDim = 23;
+inline constexpr int kStateDim = 24;
 using StateVector = Eigen::Matrix<double, kStateDim, 1>;
 using StateCovariance = Eigen::Matrix<double, kStateDim, kStateDim>;
 
@@ -21,10 +24,11 @@ struct Idx {
   static constexpr int kRot = 3;     ///< δθ_WI
   static constexpr int kExtRot = 6;  ///< δθ_IL
   static constexpr int kExtPos = 9;  ///< δp_IL
-  static constexpr int kVel = 12;    ///< δv_WI
-  static constexpr int kBg = 15;     ///< δb_g
-  static constexpr int kBa = 18;     ///< δb_a
-  static constexpr int kGrav = 21;   ///< δg (2-D, tangent of S²)
+  static constexpr int kTimeOffset = 12;  ///< δt_d (s)
+  static constexpr int kVel = 13;    ///< δv_WI
+  static constexpr int kBg = 16;     ///< δb_g
+  static constexpr int kBa = 19;     ///< δb_a
+  static constexpr int kGrav = 22;   ///< δg (2-D, tangent of S²)
 };
 
 /// Orthonormal 3x2 basis of the plane tangent to the sphere at g (a smooth choice away from ±x).
@@ -43,6 +47,7 @@ struct NavState {
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();  ///< R_WI
   Eigen::Matrix3d R_IL = Eigen::Matrix3d::Identity();
   Eigen::Vector3d p_IL = Eigen::Vector3d::Zero();
+  double td = 0.0;                                   ///< s, t_imu = t_lidar + td
   Eigen::Vector3d v = Eigen::Vector3d::Zero();
   Eigen::Vector3d bg = Eigen::Vector3d::Zero();
   Eigen::Vector3d ba = Eigen::Vector3d::Zero();
@@ -55,6 +60,7 @@ struct NavState {
     out.R = so3::Normalize(R * so3::Exp(dx.segment<3>(Idx::kRot)));
     out.R_IL = so3::Normalize(R_IL * so3::Exp(dx.segment<3>(Idx::kExtRot)));
     out.p_IL += dx.segment<3>(Idx::kExtPos);
+    out.td += dx(Idx::kTimeOffset);
     out.v += dx.segment<3>(Idx::kVel);
     out.bg += dx.segment<3>(Idx::kBg);
     out.ba += dx.segment<3>(Idx::kBa);
@@ -69,6 +75,7 @@ struct NavState {
     dx.segment<3>(Idx::kRot) = so3::Log(y.R.transpose() * R);
     dx.segment<3>(Idx::kExtRot) = so3::Log(y.R_IL.transpose() * R_IL);
     dx.segment<3>(Idx::kExtPos) = p_IL - y.p_IL;
+    dx(Idx::kTimeOffset) = td - y.td;
     dx.segment<3>(Idx::kVel) = v - y.v;
     dx.segment<3>(Idx::kBg) = bg - y.bg;
     dx.segment<3>(Idx::kBa) = ba - y.ba;
@@ -94,7 +101,7 @@ struct NavState {
     return T;
   }
   bool all_finite() const {
-    return p.allFinite() && R.allFinite() && R_IL.allFinite() && p_IL.allFinite() && v.allFinite() &&
+    return p.allFinite() && R.allFinite() && R_IL.allFinite() && p_IL.allFinite() && std::isfinite(td) && v.allFinite() &&
            bg.allFinite() && ba.allFinite() && g.allFinite();
   }
 };

@@ -109,6 +109,8 @@ class StateHistory {
   /// oldest state at rest). Returns false when t is older than the history.
   bool ensure_entry(double t);
   /// Replaces the entry at t (which must exist, see ensure_entry) and re-propagates later entries.
+  /// When x changes the time offset t_d, the later entries (IMU samples placed with the old one)
+  /// move by −Δt_d; any that would reach t are dropped.
   void correct(double t, const NavState& x, const StateCovariance& P);
   /// Stale entries are recomputed when read; below this many, new samples refresh them at once.
   static constexpr std::size_t kEagerRefresh = 64;

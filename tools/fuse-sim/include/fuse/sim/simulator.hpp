@@ -19,6 +19,10 @@ struct SimOptions {
   int laps = 1;                      ///< times round a loop (corridor only)
   double start_at_m = 0.0;           ///< start this far along the path (same world and frame)
   std::string lidar = "mid360";
+  /// The IMU's clock against the LiDAR's: every IMU sample is stamped its true time plus this
+  /// (s; the ground truth and the scans are on the LiDAR's clock, the true one). A sensor pair
+  /// without hardware sync has offsets of several to tens of milliseconds.
+  double imu_time_offset_s = 0.0;
   OutputFormat format = OutputFormat::kMcap;
   std::string out_dir;
 };
