@@ -48,7 +48,8 @@ TEST(StaticInitializer, AlignsGravityAndEstimatesGyroBias) {
   EXPECT_LT(std::acos(std::min(1.0, up_true.dot(up_est))), 1e-3);
   EXPECT_EQ(x->v, Eigen::Vector3d::Zero());
   EXPECT_EQ(init.restarts(), 0u);
-  EXPECT_EQ(init.rest_since(), 10.0);  // the still window began with the first sample
+  // The window closes with the sample at 11.0 s (1 s after the first): the one before it, 10.995 s.
+  EXPECT_NEAR(init.rest_since(), 11.0 - 1.0 / kRate, 1e-9);
 }
 
 // The sensor is swinging (gyro std well above max_gyro_std): no initial state, the window restarts.

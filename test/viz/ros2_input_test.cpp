@@ -5,7 +5,7 @@
 // time with fuse-ingest --input (once, for both layouts). One difference is in the data itself: a
 // ROS 2 cloud has no frame-end time, so a scan ends at its last point, 5 us before the frame end
 // FUSE's recordings give; the very first scan then ends just before the IMU sample that completes
-// static initialisation, inside the still window (StateHistory's rest before its oldest entry), and
+// static initialisation, after the sample before it (the sensor rested between the two: StateHistory), and
 // is answered as the plain replay's is. So: a pose for every scan the plain replay has, at the same
 // time (within 10 us), every position within 1 cm of the plain replay's (measured: 2.2 mm), and the
 // same error against the simulator's truth (ATE within 1.1x + 2 mm of the plain replay's).

@@ -229,11 +229,13 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
       }
       ++summary.scans;
       // A scan waits until the IMU covers its end on the state's clock, as fuse-state waits for it:
-      // with the IMU's clock behind, its samples up to the scan end come after the scan. At most
-      // one scan period: a scan behind it means the IMU is silent (then it coasts, as it did).
+      // with the IMU's clock behind, its samples up to the scan end come after the scan. Not
+      // beyond a data gap (divergence.max_imu_gap): an IMU silent that long has dropped out, and
+      // the scan coasts at once; nor beyond the next scan.
       while (!waiting.empty()) process_scan();
       waiting.push_back(std::move(ev.scan));
-      if (waiting.front().t_end <= imu_reached) process_scan();
+      const double t_end = waiting.front().t_end;
+      if (t_end <= imu_reached || t_end > imu_reached + config.estimator.divergence.max_imu_gap) process_scan();
     }
     while (!waiting.empty()) process_scan();
     note_refused_scans();

@@ -39,7 +39,7 @@ std::optional<NavState> StaticInitializer::add(const ImuSample& imu, double grav
   x.g = Eigen::Vector3d(0, 0, -gravity_magnitude);
   // Rotation taking the mean specific force direction to world +z (roll, pitch; yaw = 0).
   x.R = Eigen::Quaterniond::FromTwoVectors(ma.normalized(), Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  rest_since_ = window_.front().t;
+  rest_since_ = window_[window_.size() - 2].t;  // the window spans duration_s > 0: two samples at least
   window_.clear();
   return x;
 }

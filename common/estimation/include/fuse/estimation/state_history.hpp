@@ -86,9 +86,11 @@ class StateHistory {
 
   StateHistory(const StateHistoryConfig& config, const ImuNoiseConfig& noise) : config_(config), noise_(noise) {}
 
-  /// Starts the history at time t. A static initialisation result passes the time its still
-  /// window began (`rest_since` < t): the state is then known at rest over [rest_since, t], and
-  /// ensure_entry answers for times in it (a scan that ends just before the initialisation).
+  /// Starts the history at time t. A static initialisation result passes the time of the sample
+  /// before the initialising one (`rest_since` < t): the sensor rested over [rest_since, t], and
+  /// ensure_entry answers for times in it (a scan that ends just before the initialising sample,
+  /// as a ROS 2 cloud ends at its last point). Earlier scans stay before the initialisation, so
+  /// a scan handed in late is treated as it would have been on time.
   void reset(double t, const NavState& x, const StateCovariance& P, const ImuSample& held,
              double rest_since = std::numeric_limits<double>::quiet_NaN());
   bool initialised() const { return !entries_.empty(); }

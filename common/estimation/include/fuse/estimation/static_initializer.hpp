@@ -25,8 +25,8 @@ class StaticInitializer {
   /// Feeds one sample; returns the initial state once a long enough still window is seen.
   std::optional<NavState> add(const ImuSample& imu, double gravity_magnitude);
   std::size_t restarts() const { return restarts_; }
-  /// Time of the first sample of the still window the last initial state came from (the sensor
-  /// rested from then on); NaN before one.
+  /// Time of the sample before the one that completed the still window (the last initial state's
+  /// time): a scan that ends after it is covered by the initialising sample, at rest; NaN before one.
   double rest_since() const { return rest_since_; }
 
  private:
