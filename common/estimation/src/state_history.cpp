@@ -139,14 +139,15 @@ bool StateHistory::ensure_entry(double t) {
   if (entries_.empty()) return false;
   if (t < entries_.front().t - kSameTime) {
     if (!(t >= rest_since_ - kSameTime)) return false;  // NaN: no rest known before the oldest
-    // Within the still window of the static initialisation: the sensor rested, so the state at t
-    // is the oldest one, and the step from t to it is motionless (ω = b_g, f = R⊤(−g) + b_a).
+    // After the sample before the initialising one: the sensor rested, so the state at t is the
+    // oldest one, and the step from t to it is motionless.
     Entry rest = entries_.front();
     rest.t = t;
     rest.step = EntryStep{};
     rest.coasting = false;
-    rest.gyro = rest.x.bg;
-    rest.accel = rest.x.R.transpose() * (-rest.x.g) + rest.x.ba;
+    const ImuSample still = rest_measurement(rest.x, t);
+    rest.gyro = still.gyro;
+    rest.accel = still.accel;
     entries_.push_front(rest);
     ++stale_from_;
     return true;

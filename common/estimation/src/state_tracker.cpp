@@ -258,11 +258,7 @@ void StateTracker::restore(double t, const NavState& x, const StateCovariance& P
   if (held) {
     history_.reset(t, x, P, *held);
   } else {
-    ImuSample rest;
-    rest.t = t;
-    rest.gyro = x.bg;  // a zero reading would be a rotation of −b_g, coasted across any gap after
-    rest.accel = x.R.transpose() * (-x.g) + x.ba;
-    history_.reset(t, x, P, rest);
+    history_.reset(t, x, P, rest_measurement(x, t));  // coasted across any gap after
     history_.mark_newest_coasting();
   }
   last_imu_t_ = std::max(last_imu_t_, t);

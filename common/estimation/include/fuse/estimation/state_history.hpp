@@ -48,6 +48,16 @@ struct StateQuery {
   bool ok() const { return status == QueryStatus::kCorrected || status == QueryStatus::kPropagated; }
 };
 
+/// The IMU measurement of a sensor at rest in state x, at time t: ω̃ = b_g and f = R⊤(−g) + b_a
+/// (a zero reading would be a rotation of −b_g).
+inline ImuSample rest_measurement(const NavState& x, double t) {
+  ImuSample m;
+  m.t = t;
+  m.gyro = x.bg;
+  m.accel = x.R.transpose() * (-x.g) + x.ba;
+  return m;
+}
+
 struct StateHistoryConfig {
   double length_s = 5.0;  ///< how far back states are kept (late scans older than this are refused)
   void load(ConfigNode& node);
@@ -140,6 +150,9 @@ class StateHistory {
     return entries_.back();
   }
   double newest_time() const { return entries_.back().t; }
+  /// The LiDAR-IMU time offset in force: the newest up-to-date entry's (propagation keeps it, so
+  /// later entries get the same once recomputed). No re-propagation: read for every IMU sample.
+  double time_offset() const { return entries_[stale_from_ - 1].x.td; }
   double oldest_time() const { return entries_.front().t; }
   double last_correction_time() const { return last_correction_t_; }
   std::size_t size() const { return entries_.size(); }

@@ -79,7 +79,7 @@ class StateTracker {
   double last_imu_time() const { return last_imu_t_; }
   /// The LiDAR-IMU time offset in force (the newest state's; estimator.time_offset.initial_s
   /// before initialisation).
-  double time_offset() const { return history_.initialised() ? history_.newest().x.td : config_.time_offset.initial_s; }
+  double time_offset() const { return history_.initialised() ? history_.time_offset() : config_.time_offset.initial_s; }
   /// An IMU stamp on the state's clock, the LiDAR's: t_imu − t_d. Samples are placed there.
   double state_time(double t_imu) const { return t_imu - time_offset(); }
   Counters& counters() { return counters_; }
