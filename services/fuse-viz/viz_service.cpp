@@ -30,6 +30,7 @@ std::chrono::steady_clock::duration seconds(double s) {
 
 VizService::VizService(const service::SystemConfig& config, transport::Participant& participant)
     : config_(config.viz),
+      participant_(participant),
       server_(server_config(config.viz), service::FoxgloveView::channels()),
       view_(config.viz, config.estimator.T_imu_lidar) {
   logger("fuse-viz")->info("serving Foxglove WebSocket (foxglove.websocket.v1) on ws://{}:{}", config_.address, port());
@@ -42,29 +43,9 @@ VizService::VizService(const service::SystemConfig& config, transport::Participa
     }
     wake_.notify_all();
   });
-  periodic_ = std::thread([this] { run_periodic(); });
   using transport::Subscriber;
   namespace topics = transport::topics;
-  auto bad = [this](const char* topic) { return [this, topic](const std::string& why) { malformed(topic, why); }; };
-  // Each callback converts under the lock and sends outside it (Server::publish only posts).
-  auto guarded = [this](const char* topic, auto convert) {
-    return [this, topic, convert](const auto& sample) {
-      std::vector<service::FoxgloveMessage> out;
-      try {
-        std::lock_guard<std::mutex> lock(mutex_);
-        out = convert(sample);
-      } catch (const std::exception& e) {
-        return malformed(topic, e.what());
-      }
-      for (const auto& m : out) send(m);
-    };
-  };
   using Messages = std::vector<service::FoxgloveMessage>;
-  odometry_ = std::make_unique<Subscriber<fuse_msgs::StateEstimate>>(
-      participant, topics::kOdometry, guarded(topics::kOdometry, [this](const fuse_msgs::StateEstimate& s) {
-        return view_.odometry(s, wanted(Topic::kPose), wanted(Topic::kTf));
-      }),
-      bad(topics::kOdometry));
   // Every scan-rate pose joins the trajectory: deeper than the table's depth 1, which is for a late joiner.
   constexpr int kCorrectedDepth = 100;
   corrected_ = std::make_unique<Subscriber<fuse_msgs::StateEstimate>>(
@@ -87,23 +68,41 @@ VizService::VizService(const service::SystemConfig& config, transport::Participa
         return wanted(Topic::kHealth) ? Messages{view_.health(h)} : Messages{};
       }),
       bad(topics::kHealth));
+  periodic_ = std::thread([this] { run_periodic(); });  // also makes the odometry reader on demand
 }
 
 VizService::~VizService() { stop(); }
 
 void VizService::stop() {
-  odometry_.reset();
-  corrected_.reset();
-  world_scans_.reset();
-  chunks_.reset();
-  health_.reset();
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stopping_ = true;
   }
   wake_.notify_all();
-  if (periodic_.joinable()) periodic_.join();
+  if (periodic_.joinable()) periodic_.join();  // before odometry_, which that thread owns
+  odometry_.reset();
+  corrected_.reset();
+  world_scans_.reset();
+  chunks_.reset();
+  health_.reset();
   server_.stop();
+}
+
+void VizService::follow_odometry_demand() {
+  const bool want = wanted(Topic::kPose) || wanted(Topic::kTf);
+  if (want == (odometry_ != nullptr)) return;
+  namespace topics = transport::topics;
+  if (!want) {
+    odometry_.reset();  // waits for a callback in flight: mutex_ must not be held here
+    logger("fuse-viz")->info("no client wants /fuse/pose or /tf: stopped reading {}", topics::kOdometry);
+    return;
+  }
+  odometry_ = std::make_unique<transport::Subscriber<fuse_msgs::StateEstimate>>(
+      participant_, topics::kOdometry, guarded(topics::kOdometry, [this](const fuse_msgs::StateEstimate& s) {
+        return view_.odometry(s, wanted(Topic::kPose), wanted(Topic::kTf));
+      }),
+      bad(topics::kOdometry));
+  logger("fuse-viz")->info("a client wants /fuse/pose or /tf: reading {}", topics::kOdometry);
 }
 
 void VizService::send(const service::FoxgloveMessage& m) {
@@ -144,6 +143,7 @@ void VizService::run_periodic() {
     }
     lock.unlock();
     for (const auto& m : out) send(m);
+    follow_odometry_demand();
     lock.lock();
   }
 }

@@ -11,10 +11,13 @@
 
 #include <condition_variable>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "fuse/foxglove/server.hpp"
 #include "fuse/service/foxglove_view.hpp"
@@ -42,10 +45,32 @@ class VizService {
   bool wanted(Topic topic) const { return server_.has_subscribers(static_cast<foxglove::ChannelId>(topic)); }
   void send(const service::FoxgloveMessage& m);
   void malformed(const std::string& topic, const std::string& reason);
+  std::function<void(const std::string&)> bad(const char* topic) {
+    return [this, topic](const std::string& why) { malformed(topic, why); };
+  }
+  /// A DDS callback: converts the sample under mutex_ and sends the result outside it
+  /// (Server::publish only posts); a sample that does not convert is counted as malformed.
+  template <class Convert>
+  auto guarded(const char* topic, Convert convert) {
+    return [this, topic, convert](const auto& sample) {
+      std::vector<service::FoxgloveMessage> out;
+      try {
+        std::lock_guard<std::mutex> lock(mutex_);
+        out = convert(sample);
+      } catch (const std::exception& e) {
+        return malformed(topic, e.what());
+      }
+      for (const auto& m : out) send(m);
+    };
+  }
   /// Publishes the map and the trajectory when changed, at their periods (own thread).
   void run_periodic();
+  /// The IMU-rate odometry is read only while a client wants /fuse/pose or /tf: without one,
+  /// fuse-state sends it to one reader fewer. Called by the periodic thread, without mutex_.
+  void follow_odometry_demand();
 
   service::VizConfig config_;
+  transport::Participant& participant_;
   foxglove::Server server_;
 
   mutable std::mutex mutex_;
@@ -58,7 +83,8 @@ class VizService {
   std::condition_variable wake_;
   std::thread periodic_;
 
-  // Readers last: they call into everything above.
+  // Readers last: they call into everything above. odometry_ is made and dropped by the
+  // periodic thread only (follow_odometry_demand).
   std::unique_ptr<transport::Subscriber<fuse_msgs::StateEstimate>> odometry_;
   std::unique_ptr<transport::Subscriber<fuse_msgs::StateEstimate>> corrected_;
   std::unique_ptr<transport::Subscriber<fuse_msgs::WorldScan>> world_scans_;

@@ -127,6 +127,12 @@ TEST(VizSystem, AFoxgloveClientSeesWhatTheSystemEstimates) {
     return n;
   };
   ASSERT_TRUE(wait_until([&] { return count("channel") == 8; }, 60s)) << read_file(dir + "/logs/client.log");
+  // fuse-viz reads the IMU-rate odometry only while a client wants /fuse/pose or /tf.
+  EXPECT_EQ(viz_log.find("reading state/odometry"), std::string::npos) << "read before any client wanted it";
+  ASSERT_TRUE(wait_until([&] {
+    return read_file(dir + "/logs/fuse-viz.log").find("a client wants /fuse/pose or /tf: reading state/odometry") !=
+           std::string::npos;
+  }, 60s)) << read_file(dir + "/logs/fuse-viz.log");
 
   Process recorder = Process::spawn(args("fuse-record", {"--out", dir + "/recording", "--calibration-from", kRecording}),
                                     dir + "/logs/fuse-record.log");
@@ -214,6 +220,9 @@ TEST(VizSystem, AFoxgloveClientSeesWhatTheSystemEstimates) {
   const auto client_status = client.wait_for(30s);
   ASSERT_TRUE(client_status.has_value());
   EXPECT_EQ(client_status->code, 0) << read_file(dir + "/logs/client.log");
+  EXPECT_TRUE(wait_until([&] {
+    return read_file(dir + "/logs/fuse-viz.log").find("stopped reading state/odometry") != std::string::npos;
+  }, 60s)) << "the odometry reader outlived its last client";
   const std::vector<Json::Value> all = json_lines(lines_path);
   ASSERT_FALSE(all.empty());
   const Json::Value& summary = all.back();
