@@ -196,6 +196,53 @@ TEST(StateTrackerTime, ACorrectionOlderThanACoastedGapKeepsTheGapsUncertainty) {
   }
 }
 
+// A scan held inside a coasted gap (fuse-state restored, the IMU of the gap lost with a killed
+// ingest, the IMU resumed before fuse-update answered the held scans) gets the unmodelled motion
+// of its part of the gap, and its correction restarts the count: the scan after the gap meets the
+// uncertainty of the time since the last held scan, not of the whole gap. (The whole gap's σ of
+// metres after held scans had tracked through it let the long chaos soak re-localise 4 m along
+// the corridor.) Splitting the gap without a correction never makes its end more certain.
+TEST(StateTrackerTime, AHeldScanInsideACoastedGapRestartsItsUncertainty) {
+  EstimatorConfig config;
+  StateTracker tracker{config};
+  for (int k = 0; k < kInitSamples; ++k) tracker.ingest(still_imu(k * kImuDt));
+  const double gap_from = tracker.history().newest().t, gap = 3.0;
+  for (int k = 0; k < 5; ++k) tracker.ingest(still_imu(gap_from + gap + k * kImuDt));
+  ASSERT_EQ(tracker.counters().get("imu_gap"), 1u);
+  StateHistory& h = tracker.history();
+  const double t_end = gap_from + gap;  // the first sample after the gap
+  const auto V = [&](double dt) {
+    return unmodelled_motion_variance(config.divergence.gap_accel_std, config.divergence.gap_gyro_std, dt);
+  };
+  const double whole = h.query(t_end).P(Idx::kPos, Idx::kPos);
+  EXPECT_GT(whole, 0.99 * V(gap)(Idx::kPos));
+
+  // Split (a prior read) inside the gap: its own part of the gap, and the end no more certain.
+  const double t_mid = gap_from + 1.5;
+  ASSERT_TRUE(h.ensure_entry(t_mid));
+  // (beyond V, the initial covariance propagated over 1.5 s: a few centimetres at most)
+  EXPECT_GT(h.query(t_mid).P(Idx::kPos, Idx::kPos), V(1.5)(Idx::kPos));
+  EXPECT_LT(h.query(t_mid).P(Idx::kPos, Idx::kPos), V(1.5)(Idx::kPos) + 0.1);
+  EXPECT_GT(h.query(t_mid).P(Idx::kRot, Idx::kRot), V(1.5)(Idx::kRot));
+  EXPECT_LT(h.query(t_mid).P(Idx::kRot, Idx::kRot), V(1.5)(Idx::kRot) + 0.01);
+  EXPECT_GE(h.query(t_end).P(Idx::kPos, Idx::kPos), whole);
+  EXPECT_LT(h.query(t_end).P(Idx::kPos, Idx::kPos), 1.5 * whole);  // conservative, not unbounded
+
+  // Held scans every 0.1 s through the gap, each corrected (the first at the gap's start): the
+  // end is as uncertain as 0.1 s of unmeasured motion.
+  h.correct(gap_from, h.query(gap_from).x, 1e-6 * StateCovariance::Identity());
+  for (double t = gap_from + 0.1; t < t_end - 0.05; t += 0.1) {
+    ASSERT_TRUE(h.ensure_entry(t));
+    const StateQuery prior = h.query(t);
+    EXPECT_LT(prior.P(Idx::kPos, Idx::kPos), V(0.1)(Idx::kPos) + 1e-5) << "prior at " << t - gap_from << " s into the gap";
+    h.correct(t, prior.x, 1e-6 * StateCovariance::Identity());
+  }
+  const StateQuery after = h.query(t_end);
+  EXPECT_LT(after.P(Idx::kPos, Idx::kPos), 1e-3) << "whole gap: " << whole;
+  EXPECT_LT(after.P(Idx::kRot, Idx::kRot), V(0.15)(Idx::kRot) + 1e-5);
+  EXPECT_GT(after.P(Idx::kRot, Idx::kRot), V(0.05)(Idx::kRot));  // the unmeasured rest still counts
+}
+
 // A posterior restored with no IMU sample before it (fuse-state and the sensor's ingest restarted
 // together) coasts from its own attitude; a correction at its time arriving after the IMU resumed
 // gives what restoring the corrected posterior gives (not the specific force of the attitude

@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <random>
 #include <thread>
 
@@ -158,8 +159,14 @@ TEST(HistorySlice, EntryStepsRoundTripAndBadOnesAreRefused) {
   for (int i = 0; i < kStateDim; ++i) e.step.q(i) = 1e-3 * (i + 1);
   e.step.level_accel = Eigen::Vector3d(0.2, -0.1, 9.7);
   e.step.level_sigma = 0.1;
+  e.step.coast_from = 9.25;
+  e.step.coast_accel_std = 1.5;
+  e.step.coast_gyro_std = 0.4;
   e.coasting = true;
   const StateHistory::Entry back = from_msg(to_msg(e));
+  EXPECT_EQ(back.step.coast_from, e.step.coast_from);
+  EXPECT_EQ(back.step.coast_accel_std, e.step.coast_accel_std);
+  EXPECT_EQ(back.step.coast_gyro_std, e.step.coast_gyro_std);
   EXPECT_TRUE(back.coasting);
   EXPECT_EQ(back.step.q, e.step.q);
   EXPECT_EQ(back.step.level_accel, e.step.level_accel);
@@ -177,6 +184,15 @@ TEST(HistorySlice, EntryStepsRoundTripAndBadOnesAreRefused) {
   EXPECT_THROW(from_msg(bad), InvalidSample);
   bad = to_msg(e);
   bad.step_level_sigma(std::nan(""));
+  EXPECT_THROW(from_msg(bad), InvalidSample);
+  bad = to_msg(e);
+  bad.step_coast_gyro_std(-0.1);
+  EXPECT_THROW(from_msg(bad), InvalidSample);
+  bad = to_msg(e);
+  bad.step_coast_from(std::numeric_limits<double>::infinity());
+  EXPECT_THROW(from_msg(bad), InvalidSample);
+  bad = to_msg(e);
+  bad.step_coast_from(e.t + 1.0);  // a coast that starts after the entry it ends at
   EXPECT_THROW(from_msg(bad), InvalidSample);
 }
 

@@ -341,6 +341,9 @@ inline fuse_msgs::HistoryReply make_history_reply(int seed) {
       for (int k = 0; k < 24; ++k) e.step_q().push_back(v(seed, i + 8 + k));
       e.step_level_accel(vec(seed, i + 31));
       e.step_level_sigma(v(seed, i + 32));
+      e.step_coast_from(v(seed, i + 33));
+      e.step_coast_accel_std(v(seed, i + 34));
+      e.step_coast_gyro_std(v(seed, i + 35));
       e.coasting(true);
     }
     m.entries().push_back(e);

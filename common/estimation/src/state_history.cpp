@@ -64,8 +64,24 @@ void level_with_accelerometer(const Eigen::Vector3d& f, double sigma, NavState& 
   P = 0.5 * (P + P.transpose()).eval();
 }
 
-void EntryStep::apply(NavState& x, StateCovariance& P) const {
-  P.diagonal() += q;
+StateVector unmodelled_motion_variance(double accel_std, double gyro_std, double dt) {
+  StateVector q = StateVector::Zero();
+  q.segment<3>(Idx::kPos).setConstant(std::pow(0.5 * accel_std * dt * dt, 2));
+  q.segment<3>(Idx::kVel).setConstant(std::pow(accel_std * dt, 2));
+  q.segment<3>(Idx::kRot).setConstant(std::pow(gyro_std * dt, 2));
+  return q;
+}
+
+StateVector EntryStep::coast_variance(double t_prev, double t) const {
+  if (!coasts()) return StateVector::Zero();
+  // V(t − a) − V(t_prev − a): V grows with the time since the anchor, so this is never negative.
+  const double from = std::max(t_prev - coast_from, 0.0), to = std::max(t - coast_from, from);
+  return unmodelled_motion_variance(coast_accel_std, coast_gyro_std, to) -
+         unmodelled_motion_variance(coast_accel_std, coast_gyro_std, from);
+}
+
+void EntryStep::apply(NavState& x, StateCovariance& P, double t_prev, double t) const {
+  P.diagonal() += q + coast_variance(t_prev, t);
   if (level_sigma > 0.0) level_with_accelerometer(level_accel - x.ba, level_sigma, x, P);
 }
 
@@ -101,7 +117,7 @@ void StateHistory::refresh_to(std::size_t k) const {
     cur.x = prev.x;
     cur.P = prev.P;
     propagate(cur.x, &cur.P, 0.5 * (prev.gyro + cur.gyro), step_accel(prev, cur.accel), cur.t - prev.t, noise_);
-    cur.step.apply(cur.x, cur.P);
+    cur.step.apply(cur.x, cur.P, prev.t, cur.t);
   }
 }
 
@@ -160,7 +176,15 @@ bool StateHistory::ensure_entry(double t) {
   Entry mid = base;
   propagate(mid.x, &mid.P, base.gyro, base.coasting ? step_accel(base, base.accel) : base.accel, t - base.t, noise_);
   mid.t = t;
-  mid.step = EntryStep{};  // what the step [base.t, next.t] brings stays at its end
+  mid.step = EntryStep{};  // what the step [base.t, next.t] brings stays at its end, but for
+  if (i + 1 < entries_.size() && entries_[i + 1].step.coasts()) {
+    // a coast's unmodelled motion, which accrues along the step: its part up to t is here.
+    const EntryStep& coast = entries_[i + 1].step;
+    mid.step.coast_from = coast.coast_from;
+    mid.step.coast_accel_std = coast.coast_accel_std;
+    mid.step.coast_gyro_std = coast.coast_gyro_std;
+    mid.step.apply(mid.x, mid.P, base.t, t);
+  }
   const bool was_fresh = stale_entries() == 0;
   entries_.insert(entries_.begin() + static_cast<std::ptrdiff_t>(i) + 1, mid);
   // The entries after the split moved by one; the step after it now starts at t with the same
@@ -184,10 +208,16 @@ void StateHistory::correct(double t, const NavState& x, const StateCovariance& P
     std::size_t kept = i + 1;
     for (std::size_t k = i + 1; k < entries_.size(); ++k) {
       entries_[k].t -= moved;
+      if (entries_[k].step.coasts()) entries_[k].step.coast_from -= moved;
       if (entries_[k].t > entries_[i].t + kSameTime) entries_[kept++] = entries_[k];
     }
     entries_.erase(entries_.begin() + static_cast<std::ptrdiff_t>(kept), entries_.end());
     stale_from_ = std::min(stale_from_, entries_.size());
+  }
+  for (std::size_t k = i + 1; k < entries_.size(); ++k) {
+    // The posterior measured the pose at t: a coast across t is unmodelled from t on.
+    EntryStep& later = entries_[k].step;
+    if (later.coasts() && later.coast_from < entries_[i].t) later.coast_from = entries_[i].t;
   }
   repropagate_from(i);
   if (stale_entries() <= kEagerRefresh) refresh_to(entries_.size() - 1);
@@ -197,8 +227,14 @@ void StateHistory::correct(double t, const NavState& x, const StateCovariance& P
 void StateHistory::add_step_to_newest(const EntryStep& step) {
   refresh_to(entries_.size() - 1);
   Entry& e = entries_.back();
-  step.apply(e.x, e.P);
+  const double t_prev = entries_.size() > 1 ? entries_[entries_.size() - 2].t : e.t;
+  step.apply(e.x, e.P, t_prev, e.t);
   e.step.q += step.q;
+  if (step.coasts()) {
+    e.step.coast_from = step.coast_from;
+    e.step.coast_accel_std = step.coast_accel_std;
+    e.step.coast_gyro_std = step.coast_gyro_std;
+  }
   if (step.level_sigma > 0.0) {
     e.step.level_accel = step.level_accel;
     e.step.level_sigma = step.level_sigma;

@@ -189,7 +189,7 @@ void StateTracker::coast_across_gap(const ImuSample& imu) {
   constexpr double kLastStep = 0.001;  // s: the real sample closes the gap over the last millisecond
   const double reached = history_.newest().t;
   coast(imu.gyro - history_.newest().x.bg, imu.t - kLastStep);
-  history_.add_step_to_newest(gap_step(reached, imu.t, &imu.accel));
+  history_.add_step_to_newest(gap_step(reached, &imu.accel));
   history_.add_imu(imu);
 }
 
@@ -203,14 +203,17 @@ bool StateTracker::coast_to(double t) {
   const double reached = before.t;
   // No sample after the gap yet: the rate the motion before agrees on with the newest held rate.
   coast(before.gyro - before.x.bg, t);
-  history_.add_step_to_newest(gap_step(reached, t, nullptr));
+  history_.add_step_to_newest(gap_step(reached, nullptr));
   coasted_ = true;
   return true;
 }
 
-EntryStep StateTracker::gap_step(double reached, double t, const Eigen::Vector3d* accel) const {
+EntryStep StateTracker::gap_step(double reached, const Eigen::Vector3d* accel) const {
   EntryStep step;
-  step.q = gap_variance(config_.divergence, t - reached);
+  // gap_variance(t − reached), accrued along the coast (a held scan inside it takes its part).
+  step.coast_from = reached;
+  step.coast_accel_std = config_.divergence.gap_accel_std;
+  step.coast_gyro_std = config_.divergence.gap_gyro_std;
   if (accel && config_.divergence.gap_level) {
     step.level_accel = *accel;
     step.level_sigma = config_.divergence.gap_accel_std / history_.newest().x.g.norm();
@@ -246,12 +249,7 @@ Eigen::Vector3d agreed_rate(const Eigen::Vector3d& w0, const Eigen::Vector3d& w1
 }
 
 StateVector gap_variance(const DivergenceConfig& divergence, double dt) {
-  const double sa = divergence.gap_accel_std, sw = divergence.gap_gyro_std;
-  StateVector q = StateVector::Zero();
-  q.segment<3>(Idx::kPos).setConstant(std::pow(0.5 * sa * dt * dt, 2));
-  q.segment<3>(Idx::kVel).setConstant(std::pow(sa * dt, 2));
-  q.segment<3>(Idx::kRot).setConstant(std::pow(sw * dt, 2));
-  return q;
+  return unmodelled_motion_variance(divergence.gap_accel_std, divergence.gap_gyro_std, dt);
 }
 
 void StateTracker::restore(double t, const NavState& x, const StateCovariance& P, const std::optional<ImuSample>& held) {

@@ -218,6 +218,9 @@ fuse_msgs::HistoryEntry to_msg(const StateHistory::Entry& e) {
     m.step_q().assign(e.step.q.data(), e.step.q.data() + kStateDim);
     m.step_level_accel(v3(e.step.level_accel));
     m.step_level_sigma(e.step.level_sigma);
+    m.step_coast_from(e.step.coast_from);
+    m.step_coast_accel_std(e.step.coast_accel_std);
+    m.step_coast_gyro_std(e.step.coast_gyro_std);
   }
   return m;
 }
@@ -251,6 +254,13 @@ StateHistory::Entry from_msg(const fuse_msgs::HistoryEntry& m) {
   e.step.level_sigma = m.step_level_sigma();
   require(std::isfinite(e.step.level_sigma) && e.step.level_sigma >= 0.0, "history_invalid",
           "step levelling sigma is not a finite non-negative angle");
+  e.step.coast_from = m.step_coast_from();
+  e.step.coast_accel_std = m.step_coast_accel_std();
+  e.step.coast_gyro_std = m.step_coast_gyro_std();
+  require(std::isfinite(e.step.coast_from) && std::isfinite(e.step.coast_accel_std) && e.step.coast_accel_std >= 0.0 &&
+              std::isfinite(e.step.coast_gyro_std) && e.step.coast_gyro_std >= 0.0,
+          "history_invalid", "step coast is not a finite time and non-negative deviations");
+  require(!e.step.coasts() || e.step.coast_from <= e.t, "history_invalid", "step coast starts after its entry");
   return e;
 }
 

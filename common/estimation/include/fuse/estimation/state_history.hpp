@@ -70,14 +70,32 @@ struct StateHistoryConfig {
 /// heading is unobservable from it and stays.
 void level_with_accelerometer(const Eigen::Vector3d& f, double sigma, NavState& x, StateCovariance& P);
 
-/// What happens on arriving at an entry besides IMU propagation: P += diag(q), then (when
-/// level_sigma > 0) level_with_accelerometer(level_accel − b_a, level_sigma).
+/// Variance of the motion nobody measured over dt (a coasted data gap): an unknown constant
+/// acceleration of σ_a per axis, δp = ½σ_a·dt², δv = σ_a·dt, and an unknown rate of σ_ω, δθ = σ_ω·dt.
+StateVector unmodelled_motion_variance(double accel_std, double gyro_std, double dt);
+
+/// What happens on arriving at an entry besides IMU propagation: P += diag(q) + the unmodelled
+/// motion of a coasted step, then (when level_sigma > 0) level_with_accelerometer(level_accel −
+/// b_a, level_sigma).
+///
+/// The unmodelled motion is counted from the coast's anchor (`coast_from`: where the coast
+/// started, or the latest correction inside it): the step from t_prev to t adds V(t − a) −
+/// V(t_prev − a), V = unmodelled_motion_variance. Steps that split a coast add up to the whole
+/// coast's V, and a correction inside it (a held scan answered after the IMU resumed) restarts
+/// the count there: the rest of the gap is as uncertain as its own length makes it, not as the
+/// whole gap (StateHistory::correct moves the anchor).
 struct EntryStep {
   StateVector q = StateVector::Zero();               ///< diagonal covariance added (unmodelled motion)
   Eigen::Vector3d level_accel = Eigen::Vector3d::Zero();  ///< raw accelerometer sample that levels
   double level_sigma = 0.0;                          ///< rad; 0: no levelling
-  bool empty() const { return level_sigma <= 0.0 && (q.array() == 0.0).all(); }
-  void apply(NavState& x, StateCovariance& P) const;
+  double coast_from = 0.0;       ///< the coast's anchor (s); used when coast_accel_std or _gyro_std > 0
+  double coast_accel_std = 0.0;  ///< m/s²: σ_a of unmodelled_motion_variance; 0 with 0 below: no coast
+  double coast_gyro_std = 0.0;   ///< rad/s: σ_ω
+  bool coasts() const { return coast_accel_std > 0.0 || coast_gyro_std > 0.0; }
+  bool empty() const { return level_sigma <= 0.0 && (q.array() == 0.0).all() && !coasts(); }
+  /// The unmodelled motion of the step from t_prev to t (zero when it does not coast).
+  StateVector coast_variance(double t_prev, double t) const;
+  void apply(NavState& x, StateCovariance& P, double t_prev, double t) const;
 };
 
 class StateHistory {
@@ -114,14 +132,16 @@ class StateHistory {
   /// the same instant (a real sample) ends it.
   void mark_newest_coasting();
   /// Applies `step` to the newest entry and keeps it there (a data gap's unmodelled motion and
-  /// levelling), so that a re-propagation from an older correction applies it again.
+  /// levelling), so that a re-propagation from an older correction applies it again. A coast in
+  /// `step` replaces the entry's (one coast per step).
   void add_step_to_newest(const EntryStep& step);
   /// Makes sure an entry exists at time t (t ≥ oldest; past the newest it extrapolates with the
-  /// held measurement; before the oldest, within the rest the history started from, it is the
+  /// held measurement; inside a coasted step it takes the coast's unmodelled motion up to t;
+  /// before the oldest, within the rest the history started from, it is the
   /// oldest state at rest). Returns false when t is older than the history.
   bool ensure_entry(double t);
   /// Replaces the entry at t (which must exist, see ensure_entry) and re-propagates later entries.
-  /// When x changes the time offset t_d, the later entries (IMU samples placed with the old one)
+  /// A coast that spans t counts its unmodelled motion from t on (EntryStep). When x changes the time offset t_d, the later entries (IMU samples placed with the old one)
   /// move by −Δt_d; any that would reach t are dropped.
   void correct(double t, const NavState& x, const StateCovariance& P);
   /// Stale entries are recomputed when read; below this many, new samples refresh them at once.

@@ -101,10 +101,11 @@ class StateTracker {
   void coast(const Eigen::Vector3d& rate_after, double t);
   /// Counts a data gap once (imu_gap) and reports it.
   void flag_gap(double t, const std::string& message);
-  /// The step kept with the entry where a gap coasted from `reached` ends at t: the unmodelled
-  /// motion's variance over t − reached (a gap coasted scan by scan grows per scan: each scan in
-  /// it measured the pose at its end) and the levelling with `accel` when a sample ends the gap.
-  EntryStep gap_step(double reached, double t, const Eigen::Vector3d* accel) const;
+  /// The step kept with the newest entry, where a gap coasted from `reached` ends: the unmodelled
+  /// motion since `reached` (EntryStep's coast; a gap coasted scan by scan grows per scan: each
+  /// scan in it measured the pose at its end) and the levelling with `accel` when a sample ends
+  /// the gap.
+  EntryStep gap_step(double reached, const Eigen::Vector3d* accel) const;
 
   EstimatorConfig config_;
   StaticInitializer initializer_;
