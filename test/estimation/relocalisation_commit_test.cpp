@@ -4,6 +4,8 @@
 // points lie on a mapped plane), from a prior 0.3 m too high with a wide σ. The floor alone pulls
 // the height back; the scan as a whole fits a few percent. Taken (commit_fit 0), the history
 // moves; not taken (the default), it keeps the prior and the scan is not added to the map.
+// Nor is a scan re-localised that was mostly measured during a data gap
+// (estimator.recovery.min_measured_fraction).
 #include <gtest/gtest.h>
 
 #include <random>
@@ -102,6 +104,70 @@ TEST(RelocalisationCommit, AFitOfAFewPercentIsNotTaken) {
   EXPECT_FALSE(kept.report.updated);
   EXPECT_NEAR(kept.z_after, 0.3, 1e-9) << "not taken: the prior stays";
   EXPECT_EQ(kept.report.map_inserted, 0u);
+}
+
+/// The room seen at 1.05 s after a data gap that ended at 1.0 s (the IMU resumed there), with
+/// `in_gap` of its points stamped before the gap's end (cut: nothing measured the motion that
+/// would deskew them), from a prior re-localisation must search (σ 1 m).
+struct GapOutcome {
+  ScanReport report;
+  std::uint64_t mostly_in_gap = 0;  ///< counter recovery_scan_mostly_in_gap
+  std::uint64_t points_cut = 0;     ///< counter scan_points_in_data_gap
+};
+
+GapOutcome after_gap(double min_measured_fraction, double in_gap) {
+  EstimatorConfig config;
+  config.preprocess.deskew = false;
+  config.recovery.min_measured_fraction = min_measured_fraction;
+  LidarUpdater updater(config);
+  StateHistory history(config.history, config.imu);
+  ImuSample at_rest;
+  at_rest.accel = Eigen::Vector3d(0, 0, 9.81);
+  history.reset(0.0, NavState{}, StateCovariance::Identity() * 1e-6, at_rest);
+  EXPECT_TRUE(history.ensure_entry(0.1));
+  updater.process(room(0.1), history);
+  for (double t = 1.0; t < 1.0501; t += 0.005) {  // the gap [0.1, 1.0], then the IMU again
+    at_rest.t = t;
+    history.add_imu(at_rest);
+  }
+  EXPECT_TRUE(history.ensure_entry(1.05));
+  StateCovariance wide = history.query(1.05).P;
+  wide.block<3, 3>(Idx::kPos, Idx::kPos) = Eigen::Matrix3d::Identity();
+  history.correct(1.05, history.query(1.05).x, wide);
+  LidarScan scan = room(1.05);
+  scan.t_start = 0.95;
+  for (std::size_t i = 0; i < scan.points.size(); ++i) {
+    // Spread over the scan: a fraction in_gap of the points before 1.0 s (t_rel < 0.05).
+    const double u = static_cast<double>(i % 100) / 100.0;
+    scan.points[i].t_rel = static_cast<float>(u < in_gap ? 0.049 * u / in_gap : 0.0505 + 0.049 * (u - in_gap));
+  }
+  GapOutcome out;
+  out.report = updater.process(scan, history);
+  out.mostly_in_gap = updater.counters().get("recovery_scan_mostly_in_gap");
+  out.points_cut = updater.counters().get("scan_points_in_data_gap");
+  return out;
+}
+
+// A scan mostly measured during a data gap keeps only a sliver of the scene after the cut, which
+// fits a wrong place as well as the right one: it is not re-localised, counted, and the prior
+// stays for the next scan (estimator.recovery.min_measured_fraction). A scan measured mostly
+// after the gap is re-localised on what is left.
+TEST(RelocalisationCommit, AScanMostlyMeasuredInADataGapIsNotReLocalised) {
+  const GapOutcome sliver = after_gap(0.5, 0.95);
+  EXPECT_TRUE(sliver.report.recovery);
+  EXPECT_FALSE(sliver.report.updated);
+  EXPECT_EQ(sliver.report.map_inserted, 0u);
+  EXPECT_EQ(sliver.mostly_in_gap, 1u);
+  EXPECT_EQ(sliver.points_cut, 1u);  // counted once per scan
+
+  const GapOutcome without_rule = after_gap(0.0, 0.95);
+  EXPECT_TRUE(without_rule.report.recovery);
+  EXPECT_TRUE(without_rule.report.updated) << "without the rule the sliver is re-localised";
+  const GapOutcome most_measured = after_gap(0.5, 0.3);
+  EXPECT_TRUE(most_measured.report.recovery);
+  EXPECT_TRUE(most_measured.report.updated);
+  EXPECT_EQ(most_measured.mostly_in_gap, 0u);
+  EXPECT_EQ(most_measured.points_cut, 1u);
 }
 
 }  // namespace

@@ -59,6 +59,7 @@ void RecoveryConfig::load(ConfigNode& node) {
   node.get("heading_hypotheses", heading_hypotheses).get("inlier_residual", inlier_residual);
   node.get("heading_margin", heading_margin).get("min_fit", min_fit).get("map_hold_distance", map_hold_distance);
   node.get("map_hold_radius", map_hold_radius).get("turn_through_gap", turn_through_gap).get("commit_fit", commit_fit);
+  node.get("min_measured_fraction", min_measured_fraction);
   node.get("ambiguity_angle", ambiguity_angle).get("ambiguity_fit", ambiguity_fit);
   node.check(std::isfinite(position_std) && position_std > 0.0, "position_std", "must be positive and finite");
   node.check(std::isfinite(rotation_std) && rotation_std > 0.0, "rotation_std", "must be positive and finite");
@@ -71,6 +72,8 @@ void RecoveryConfig::load(ConfigNode& node) {
              "must be in [0, 1)");
   node.check(std::isfinite(min_fit) && min_fit >= 0.0 && min_fit <= 1.0, "min_fit", "must be in [0, 1]");
   node.check(std::isfinite(commit_fit) && commit_fit >= 0.0 && commit_fit <= 1.0, "commit_fit", "must be in [0, 1]");
+  node.check(std::isfinite(min_measured_fraction) && min_measured_fraction >= 0.0 && min_measured_fraction <= 1.0,
+             "min_measured_fraction", "must be in [0, 1]");
   node.check(std::isfinite(ambiguity_angle) && ambiguity_angle > 0.0 && ambiguity_angle <= M_PI, "ambiguity_angle",
              "must be in (0, pi] rad");
   node.check(std::isfinite(ambiguity_fit) && ambiguity_fit >= 0.0 && ambiguity_fit <= 1.0, "ambiguity_fit", "must be in [0, 1]");

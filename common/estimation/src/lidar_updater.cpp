@@ -194,7 +194,16 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
                                                   scan.t_end, std::sqrt(prior.P.block<3, 3>(Idx::kPos, Idx::kPos).trace()),
                                                   std::sqrt(prior.P.block<3, 3>(Idx::kRot, Idx::kRot).trace())));
   }
-  if (map_->size() > 0) {
+  const std::size_t in_range = raw_.size() + in_gap;
+  const bool sliver = report.recovery && in_gap > 0 &&
+                      static_cast<double>(raw_.size()) < config_.recovery.min_measured_fraction * static_cast<double>(in_range);
+  if (sliver) {
+    counters_.count("recovery_scan_mostly_in_gap",
+                    fmt::format("scan at t={:.6f} not re-localised: only {} of its {} points were measured after the data "
+                                "gap (recovery.min_measured_fraction {:.2f}); the prior stays, the next scan searches",
+                                scan.t_end, raw_.size(), in_range, config_.recovery.min_measured_fraction));
+  }
+  if (map_->size() > 0 && !sliver) {
     UpdateResult result;
     if (report.recovery) {
       result = relocalise(history, scan.t_end, report);
@@ -343,14 +352,19 @@ NavState LidarUpdater::turned(const NavState& prior, const std::optional<Coasted
 // stands unless a converged x_k⁺ has E_k < E_0 − m·N·τ²/σ² (m = recovery.heading_margin), so that a
 // symmetric place, which fits its mirror image almost as well, keeps the prior's heading.
 // Turning the whole history about the vertical leaves the deskewed points unchanged, so the
-// hypotheses share them. Only a prior whose heading σ exceeds recovery.rotation_std searches.
+// hypotheses share them. Only a prior whose heading is uncertain on the hypotheses' scale
+// searches: 3σ_ψ at least half their spacing, σ_ψ ≥ π/(3K) (5° for K = 12). A narrower prior
+// cannot have its heading between two hypotheses, and one run from it converges within its
+// basin; searching anyway cost every scan of a coasted stretch (σ_ψ = gap_gyro_std · 0.1 s) a
+// dozen updates, too slow for fuse-update to catch up on the scans held through a restart.
 UpdateResult LidarUpdater::relocalise(StateHistory& history, double t, ScanReport& report) {
   const StateQuery prior = history.query(t);
   const Eigen::Vector3d up = -prior.x.g.normalized();
   // Only a prior whose heading is uncertain searches: σ_ψ² = (R̂ᵀu)ᵀ P_θθ (R̂ᵀu) (body-frame δθ).
   const Eigen::Vector3d up_I = prior.x.R.transpose() * up;
   const double heading_std = std::sqrt(std::max(up_I.dot(prior.P.block<3, 3>(Idx::kRot, Idx::kRot) * up_I), 0.0));
-  const int K = heading_std > config_.recovery.rotation_std ? config_.recovery.heading_hypotheses : 1;
+  const int hypotheses = config_.recovery.heading_hypotheses;
+  const int K = hypotheses > 1 && 3.0 * heading_std >= M_PI / hypotheses ? hypotheses : 1;
   const double tau = config_.recovery.inlier_residual, sigma = recovery_measurement_.point_sigma;
   const double outlier_cost = tau * tau / (sigma * sigma);
   const double margin = config_.recovery.heading_margin * static_cast<double>(points_L_.size()) * outlier_cost;

@@ -105,7 +105,8 @@ struct RecoveryConfig {
   /// handheld sensor turns at up to ~150°/s), so the coasted heading may be off by anything. Such
   /// a scan is re-localised from this many headings about the gravity axis, evenly spaced around
   /// the prior's (1: the prior's only), and the most probable result is kept
-  /// (LidarUpdater::relocalise: truncated residual cost plus the prior's pose term).
+  /// (LidarUpdater::relocalise: truncated residual cost plus the prior's pose term). Only when
+  /// the prior's heading σ is at least π/(3K): a narrower one is searched from itself alone.
   int heading_hypotheses = 12;
   /// After a coasted gap, a heading hypothesis is a turn taken during the gap: its position is
   /// moved to the end of the arc that turn would have followed, and its velocity turned alike
@@ -126,6 +127,13 @@ struct RecoveryConfig {
   /// location, and taking it moves a usable prior far off. Right headings after a gap across a
   /// turn have fitted as poorly as 0.39 and were worth taking (docs/chaos.md).
   double commit_fit = 0.2;
+  /// A scan of which less than this fraction of the in-range points was measured after a data gap
+  /// (the rest is cut: nothing measured the motion that would deskew them) is not re-localised:
+  /// what is left is a sliver of the scene, and it fits a wrong place as well as the right one (a
+  /// restarted driver's first scan ends 1 ms after the IMU resumes: 161 constraints instead of
+  /// 1,800, fit 0.95, 4 m along the corridor). The prior stays and the next scan, measured whole,
+  /// searches.
+  double min_measured_fraction = 0.5;
   /// A re-localisation is ambiguous when its kept result's heading ended more than
   /// ambiguity_angle (rad) from the prior's, while a result whose heading ended more than
   /// ambiguity_angle from the kept one fits within ambiguity_fit of it: a young map that sees only
