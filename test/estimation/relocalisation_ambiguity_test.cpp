@@ -12,6 +12,7 @@
 #include <cmath>
 
 #include "fuse/estimation/lidar_updater.hpp"
+#include "test_helpers.hpp"
 
 namespace fuse {
 namespace {
@@ -68,11 +69,7 @@ Outcome relocalise_half_turn(double pillar) {
   EstimatorConfig config;
   config.preprocess.deskew = false;
   LidarUpdater updater(config);
-  StateHistory history(config.history, config.imu);
-  ImuSample at_rest;
-  at_rest.accel = Eigen::Vector3d(0, 0, 9.81);
-  history.reset(0.0, NavState{}, StateCovariance::Identity() * 1e-6, at_rest);
-  EXPECT_TRUE(history.ensure_entry(0.1));
+  StateHistory history = test::rested_history(config.history, config.imu, 0.1);
   updater.process(room_with_pillar(0.1, pillar, 0.0), history);  // seeds the map at the true pose
   EXPECT_TRUE(history.ensure_entry(0.2));
   StateCovariance wide = history.query(0.2).P;

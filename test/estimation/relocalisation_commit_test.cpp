@@ -11,6 +11,7 @@
 #include <random>
 
 #include "fuse/estimation/lidar_updater.hpp"
+#include "test_helpers.hpp"
 
 namespace fuse {
 namespace {
@@ -72,12 +73,7 @@ Outcome relocalise_with(double commit_fit) {
   config.preprocess.deskew = false;
   config.recovery.commit_fit = commit_fit;
   LidarUpdater updater(config);
-  StateHistory history(config.history, config.imu);
-  ImuSample at_rest;
-  at_rest.accel = Eigen::Vector3d(0, 0, 9.81);
-  StateCovariance P = StateCovariance::Identity() * 1e-6;
-  history.reset(0.0, NavState{}, P, at_rest);
-  EXPECT_TRUE(history.ensure_entry(0.1));
+  StateHistory history = test::rested_history(config.history, config.imu, 0.1);
   updater.process(room(0.1), history);  // seeds the map at the true pose
   EXPECT_GT(updater.map().size(), 0u);
   EXPECT_TRUE(history.ensure_entry(0.2));
@@ -120,16 +116,9 @@ GapOutcome after_gap(double min_measured_fraction, double in_gap) {
   config.preprocess.deskew = false;
   config.recovery.min_measured_fraction = min_measured_fraction;
   LidarUpdater updater(config);
-  StateHistory history(config.history, config.imu);
-  ImuSample at_rest;
-  at_rest.accel = Eigen::Vector3d(0, 0, 9.81);
-  history.reset(0.0, NavState{}, StateCovariance::Identity() * 1e-6, at_rest);
-  EXPECT_TRUE(history.ensure_entry(0.1));
+  StateHistory history = test::rested_history(config.history, config.imu, 0.1);
   updater.process(room(0.1), history);
-  for (double t = 1.0; t < 1.0501; t += 0.005) {  // the gap [0.1, 1.0], then the IMU again
-    at_rest.t = t;
-    history.add_imu(at_rest);
-  }
+  for (double t = 1.0; t < 1.0501; t += 0.005) history.add_imu(test::at_rest(t));  // the gap [0.1, 1.0], then the IMU
   EXPECT_TRUE(history.ensure_entry(1.05));
   StateCovariance wide = history.query(1.05).P;
   wide.block<3, 3>(Idx::kPos, Idx::kPos) = Eigen::Matrix3d::Identity();

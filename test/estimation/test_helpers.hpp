@@ -1,4 +1,5 @@
-// Shared helpers of the estimation tests: random states and rotations with fixed seeds.
+// Shared helpers of the estimation tests: random states and rotations with fixed seeds, and a
+// sensor at rest.
 #pragma once
 
 #include <Eigen/Core>
@@ -6,6 +7,7 @@
 
 #include "fuse/core/so3.hpp"
 #include "fuse/estimation/state.hpp"
+#include "fuse/estimation/state_history.hpp"
 
 namespace fuse::test {
 
@@ -55,6 +57,23 @@ inline StateCovariance random_covariance(std::mt19937& rng, double sigma) {
 /// Rotation angle between two rotation matrices (rad).
 inline double rotation_error(const Eigen::Matrix3d& A, const Eigen::Matrix3d& B) {
   return so3::Log(A.transpose() * B).norm();
+}
+
+/// The IMU reading of a level sensor at rest at time t (gravity along −z, no bias).
+inline ImuSample at_rest(double t = 0.0) {
+  ImuSample s;
+  s.t = t;
+  s.accel = Eigen::Vector3d(0, 0, 9.81);
+  return s;
+}
+
+/// A history started at 0 at rest at the origin (σ 1 mm / 1 mrad), with an entry at `first_scan`
+/// for the scan that seeds the map.
+inline StateHistory rested_history(const StateHistoryConfig& history, const ImuNoiseConfig& imu, double first_scan) {
+  StateHistory h(history, imu);
+  h.reset(0.0, NavState{}, StateCovariance::Identity() * 1e-6, at_rest());
+  h.ensure_entry(first_scan);
+  return h;
 }
 
 }  // namespace fuse::test
