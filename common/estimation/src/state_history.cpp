@@ -179,10 +179,7 @@ bool StateHistory::ensure_entry(double t) {
   mid.step = EntryStep{};  // what the step [base.t, next.t] brings stays at its end, but for
   if (i + 1 < entries_.size() && entries_[i + 1].step.coasts()) {
     // a coast's unmodelled motion, which accrues along the step: its part up to t is here.
-    const EntryStep& coast = entries_[i + 1].step;
-    mid.step.coast_from = coast.coast_from;
-    mid.step.coast_accel_std = coast.coast_accel_std;
-    mid.step.coast_gyro_std = coast.coast_gyro_std;
+    mid.step.take_coast(entries_[i + 1].step);
     mid.step.apply(mid.x, mid.P, base.t, t);
   }
   const bool was_fresh = stale_entries() == 0;
@@ -230,11 +227,7 @@ void StateHistory::add_step_to_newest(const EntryStep& step) {
   const double t_prev = entries_.size() > 1 ? entries_[entries_.size() - 2].t : e.t;
   step.apply(e.x, e.P, t_prev, e.t);
   e.step.q += step.q;
-  if (step.coasts()) {
-    e.step.coast_from = step.coast_from;
-    e.step.coast_accel_std = step.coast_accel_std;
-    e.step.coast_gyro_std = step.coast_gyro_std;
-  }
+  if (step.coasts()) e.step.take_coast(step);
   if (step.level_sigma > 0.0) {
     e.step.level_accel = step.level_accel;
     e.step.level_sigma = step.level_sigma;

@@ -92,6 +92,12 @@ struct EntryStep {
   double coast_accel_std = 0.0;  ///< m/s²: σ_a of unmodelled_motion_variance; 0 with 0 below: no coast
   double coast_gyro_std = 0.0;   ///< rad/s: σ_ω
   bool coasts() const { return coast_accel_std > 0.0 || coast_gyro_std > 0.0; }
+  /// Takes `other`'s coast (anchor and deviations), keeping this step's q and levelling.
+  void take_coast(const EntryStep& other) {
+    coast_from = other.coast_from;
+    coast_accel_std = other.coast_accel_std;
+    coast_gyro_std = other.coast_gyro_std;
+  }
   bool empty() const { return level_sigma <= 0.0 && (q.array() == 0.0).all() && !coasts(); }
   /// The unmodelled motion of the step from t_prev to t (zero when it does not coast).
   StateVector coast_variance(double t_prev, double t) const;
