@@ -17,6 +17,7 @@ foxglove::ServerConfig server_config(const service::VizConfig& c) {
   s.address = c.address;
   s.port = static_cast<std::uint16_t>(c.port);
   s.max_client_queue_bytes = static_cast<std::size_t>(c.max_client_queue_mb * kBytesPerMiB);
+  s.max_client_backlog_s = c.max_client_backlog_s;
   s.max_clients = static_cast<std::size_t>(c.max_clients);
   s.name = "fuse-viz";
   return s;
@@ -158,6 +159,8 @@ service::HealthSnapshot VizService::health() const {
   h.counters["connections_refused"] = s.refused;
   h.counters["messages_sent"] = s.messages_sent;
   h.counters["messages_dropped_slow_client"] = s.messages_dropped;
+  h.counters["clients_stalled"] = s.clients_stalled;
+  h.counters["client_stalls"] = s.stalls;
   h.counters["client_requests_bad"] = s.bad_requests;
   h.counters["trajectory_thinned"] = view_.trajectory_thinned();
   h.last_error = last_error_;

@@ -1,7 +1,8 @@
 // The Foxglove layer without DDS: the encoders (base64 against RFC 4648's vectors, the JSON of
 // each schema read back) and the WebSocket server against a client written here with Beast
 // (handshake and subprotocol, advertise, subscribe, Message Data framing, latched channels,
-// bad requests, and a client that stops reading: bounded, its oldest messages dropped).
+// bad requests, and a client that stops reading: bounded, its oldest messages dropped, and
+// stalled until it reads again).
 #include <gtest/gtest.h>
 #include <json/json.h>
 
@@ -284,12 +285,64 @@ TEST(FoxgloveServer, ASlowClientLosesOldMessagesWithinItsBound) {
   }
 }
 
+TEST(FoxgloveServer, AStalledClientCostsNothingUntilItReadsAgain) {
+  ServerConfig config = any_port();
+  config.max_client_backlog_s = 0.2;
+  config.max_client_queue_bytes = std::size_t{1} << 30;  // only the age bound drops here
+  Server server(config, two_channels());
+  std::atomic<int> announced{0};
+  server.on_subscribe([&](ChannelId channel) { announced += channel == 1 ? 1 : 0; });
+  Client client(server.port());
+  client.read();
+  client.read();
+  client.send(R"({"op":"subscribe","subscriptions":[{"id":1,"channelId":1},{"id":2,"channelId":2}]})");
+  ASSERT_TRUE(wait_until([&] { return server.has_subscribers(1) && server.has_subscribers(2); }));
+  // The client stops reading: once the socket buffers are full and a frame has waited for the
+  // backlog bound, it no longer counts as a subscriber.
+  const std::string payload(1u << 20, 'x');
+  std::uint64_t published = 0;
+  ASSERT_TRUE(wait_until([&] {
+    server.publish(1, ++published, payload);
+    return !server.has_subscribers(1);
+  }));
+  EXPECT_FALSE(server.has_subscribers(2));
+  EXPECT_EQ(server.stats().clients_stalled, 1u);
+  EXPECT_EQ(server.stats().stalls, 1u);
+  EXPECT_EQ(server.stats().clients, 1u);
+  server.publish(2, 1000000, "the map while it was stalled");  // latched: kept however old
+  std::this_thread::sleep_for(std::chrono::duration<double>(2 * config.max_client_backlog_s));  // let the queue age
+  // It reads again: what waited beyond the bound is gone (counted), the latched frame is not,
+  // and it counts as a subscriber again, announced to the producer as a new subscription.
+  std::uint64_t received = 0;
+  bool latched_seen = false;
+  while (!latched_seen) {
+    const std::string frame = client.read();
+    if (u32(frame, 1) == 2) {
+      EXPECT_EQ(frame.substr(13), "the map while it was stalled");
+      latched_seen = true;
+    } else {
+      ++received;
+    }
+  }
+  EXPECT_TRUE(wait_until([&] { return server.has_subscribers(1) && server.stats().clients_stalled == 0; }));
+  EXPECT_GE(announced, 2);
+  EXPECT_EQ(server.stats().messages_dropped, published - received);
+  EXPECT_GT(server.stats().messages_dropped, 0u);
+  // Fresh messages flow at once, with no backlog before them.
+  server.publish(1, 2000000, "fresh");
+  const std::string fresh = client.read();
+  EXPECT_EQ(u64(fresh, 5), 2000000u);
+}
+
 TEST(FoxgloveServer, ConfigIsChecked) {
   ServerConfig c;
   c.address = "localhost.example";
   EXPECT_THROW(c.validate(), std::invalid_argument);
   c = ServerConfig{};
   c.max_client_queue_bytes = 10;
+  EXPECT_THROW(c.validate(), std::invalid_argument);
+  c = ServerConfig{};
+  c.max_client_backlog_s = 0.0;
   EXPECT_THROW(c.validate(), std::invalid_argument);
   // A port in use: a clear error, not a crash.
   Server first(any_port(), two_channels());

@@ -55,18 +55,26 @@ bool offers(beast::string_view list, const std::string& wanted) {
   return false;
 }
 
+using Clock = std::chrono::steady_clock;
+
 /// One queued frame: a text message, or a Message Data header with a payload shared by every client.
 struct Frame {
   std::shared_ptr<const std::string> body;
   std::array<std::uint8_t, kDataHeaderBytes> header{};
   bool binary = false;
+  ChannelId channel = 0;  ///< data frames: the channel it was published on
+  bool latched = false;   ///< data frames: that channel is latched
+  Clock::time_point queued{};
   std::size_t bytes() const { return body->size() + (binary ? kDataHeaderBytes : 0); }
 };
 
-Frame data_frame(std::uint32_t subscription, std::uint64_t log_time_ns, std::shared_ptr<const std::string> payload) {
+Frame data_frame(const Channel& channel, ChannelId id, std::uint32_t subscription, std::uint64_t log_time_ns,
+                 std::shared_ptr<const std::string> payload) {
   Frame f;
   f.binary = true;
   f.body = std::move(payload);
+  f.channel = id;
+  f.latched = channel.latched;
   f.header[0] = kOpMessageData;
   for (int i = 0; i < 4; ++i) f.header[1 + i] = static_cast<std::uint8_t>(subscription >> (8 * i));        // LE
   for (int i = 0; i < 8; ++i) f.header[5 + i] = static_cast<std::uint8_t>(log_time_ns >> (8 * i));        // LE
@@ -86,6 +94,9 @@ void ServerConfig::validate() const {
   net::ip::make_address(address, ec);
   if (ec) throw std::invalid_argument("address: '" + address + "' is not an IP address");
   if (max_client_queue_bytes < 1024) throw std::invalid_argument("max_client_queue_bytes: at least 1024");
+  if (!(max_client_backlog_s >= 0.01 && max_client_backlog_s <= 3600.0)) {
+    throw std::invalid_argument("max_client_backlog_s: must be in [0.01, 3600] s");
+  }
   if (max_clients < 1) throw std::invalid_argument("max_clients: at least 1");
   if (name.empty()) throw std::invalid_argument("name: empty");
 }
@@ -100,11 +111,12 @@ struct Server::Impl {
   std::thread thread;
   std::set<std::shared_ptr<Session>> sessions;          // io thread
   std::map<ChannelId, std::pair<std::uint64_t, std::shared_ptr<const std::string>>> latched;  // io thread
-  std::vector<std::atomic<int>> subscribers;            // per channel index
+  std::vector<std::atomic<int>> subscribers;            // per channel index: clients not stalled
   std::string session_id;
   std::function<void(ChannelId)> subscribed;  // set before clients connect
   std::atomic<bool> stopped{false};
   std::atomic<std::uint64_t> clients{0}, connections{0}, refused{0}, sent{0}, dropped{0}, bad{0};
+  std::atomic<std::uint64_t> stalled{0}, stalls{0};
   /// Published, not yet handed to the sessions: producers append, and only the first of a burst
   /// wakes the io thread (a pose and its transform, published together, cost one wake-up).
   struct Pending {
@@ -135,15 +147,17 @@ class Session : public std::enable_shared_from_this<Session> {
   /// Queues a frame; when it does not fit, drops this client's oldest queued data frames.
   void send(Frame frame) {
     if (closed_) return;
+    const Clock::time_point now = Clock::now();
+    frame.queued = now;
+    review_backlog(now);
     const std::size_t limit = server_.config.max_client_queue_bytes;
-    // The frame being written (the front while writing) stays; text frames (protocol) stay.
-    std::size_t first_droppable = writing_ ? 1 : 0;
-    while (queued_bytes_ + frame.bytes() > limit && first_droppable < queue_.size()) {
-      auto it = queue_.begin() + static_cast<std::ptrdiff_t>(first_droppable);
+    // Text frames (protocol) stay; the frame being written is out of the queue.
+    auto it = queue_.begin();
+    while (queued_bytes_ + frame.bytes() > limit) {
       while (it != queue_.end() && !it->binary) ++it;
       if (it == queue_.end()) break;
       queued_bytes_ -= it->bytes();
-      queue_.erase(it);
+      it = queue_.erase(it);
       ++server_.dropped;
     }
     if (frame.binary && queued_bytes_ + frame.bytes() > limit) {
@@ -164,7 +178,11 @@ class Session : public std::enable_shared_from_this<Session> {
   void close() {
     if (closed_) return;
     closed_ = true;
-    for (const auto& [sub, channel] : subscriptions_) --server_.subscribers[channel - 1];
+    if (!stalled_) {
+      for (const auto& [sub, channel] : subscriptions_) --server_.subscribers[channel - 1];
+    } else {
+      --server_.stalled;
+    }
     subscriptions_.clear();
     by_channel_.clear();
     beast::error_code ignored;
@@ -279,10 +297,12 @@ class Session : public std::enable_shared_from_this<Session> {
       }
       subscriptions_[id] = channel;
       by_channel_[channel] = id;
-      ++server_.subscribers[channel - 1];
+      if (!stalled_) ++server_.subscribers[channel - 1];
       if (server_.subscribed) server_.subscribed(channel);
       const auto last = server_.latched.find(channel);
-      if (last != server_.latched.end()) send(data_frame(id, last->second.first, last->second.second));
+      if (last != server_.latched.end()) {
+        send(data_frame(server_.channels[channel - 1], channel, id, last->second.first, last->second.second));
+      }
     }
   }
 
@@ -296,13 +316,61 @@ class Session : public std::enable_shared_from_this<Session> {
       const ChannelId channel = subscriptions_[v.asUInt()];
       subscriptions_.erase(v.asUInt());
       by_channel_.erase(channel);
-      --server_.subscribers[channel - 1];
+      if (!stalled_) --server_.subscribers[channel - 1];
+    }
+  }
+
+  /// Drops queued data frames that waited longer than the backlog bound, but the newest of each
+  /// latched channel (a map or static transform that is not sent again until it changes), and
+  /// marks the client stalled while the frame being written has waited that long.
+  void review_backlog(Clock::time_point now) {
+    const Clock::time_point oldest = now - std::chrono::duration_cast<Clock::duration>(
+                                               std::chrono::duration<double>(server_.config.max_client_backlog_s));
+    if (!queue_.empty() && queue_.front().queued < oldest) {
+      std::set<ChannelId> newer;  // latched channels whose newest queued frame was met
+      std::deque<Frame> kept;
+      for (auto i = queue_.size(); i-- > 0;) {  // newest first
+        Frame& f = queue_[i];
+        const bool newest_latched = f.latched && newer.insert(f.channel).second;
+        if (!f.binary || newest_latched || f.queued >= oldest) {
+          kept.push_front(std::move(f));
+        } else {
+          queued_bytes_ -= f.bytes();
+          ++server_.dropped;
+        }
+      }
+      queue_.swap(kept);
+    }
+    set_stalled(writing_ && write_started_ < oldest);
+  }
+
+  /// A stalled client does not count as a subscriber; when it reads again its channels are
+  /// announced to the producers as if newly subscribed.
+  void set_stalled(bool stalled) {
+    if (stalled == stalled_) return;
+    stalled_ = stalled;
+    if (stalled) {
+      ++server_.stalled;
+      ++server_.stalls;
+      for (const auto& [channel, sub] : by_channel_) --server_.subscribers[channel - 1];
+      logger("foxglove")->warn("a client has taken no message for {} s: stalled, its old messages are dropped",
+                               server_.config.max_client_backlog_s);
+      return;
+    }
+    for (const auto& [channel, sub] : by_channel_) ++server_.subscribers[channel - 1];
+    --server_.stalled;
+    logger("foxglove")->info("a stalled client reads again");
+    if (server_.subscribed) {
+      for (const auto& [channel, sub] : by_channel_) server_.subscribed(channel);
     }
   }
 
   void write_next() {
     writing_ = true;
-    Frame& f = queue_.front();
+    write_started_ = Clock::now();
+    in_flight_ = std::move(queue_.front());  // out of the queue: its buffers must not move while written
+    queue_.pop_front();
+    const Frame& f = in_flight_;
     ws_.binary(f.binary);
     auto done = [self = shared_from_this()](beast::error_code ec, std::size_t) { self->on_write(ec); };
     if (f.binary) {
@@ -316,10 +384,12 @@ class Session : public std::enable_shared_from_this<Session> {
   void on_write(beast::error_code ec) {
     writing_ = false;
     if (ec) return close();
-    if (queue_.front().binary) ++server_.sent;
-    queued_bytes_ -= queue_.front().bytes();
-    queue_.pop_front();
-    if (!queue_.empty() && !closed_) write_next();
+    if (in_flight_.binary) ++server_.sent;
+    queued_bytes_ -= in_flight_.bytes();
+    in_flight_ = Frame{};
+    if (closed_) return;
+    review_backlog(Clock::now());
+    if (!queue_.empty()) write_next();
   }
 
   websocket::stream<beast::tcp_stream> ws_;
@@ -327,9 +397,12 @@ class Session : public std::enable_shared_from_this<Session> {
   beast::flat_buffer buffer_;
   http::request<http::string_body> request_;
   beast::flat_buffer incoming_;
-  std::deque<Frame> queue_;
-  std::size_t queued_bytes_ = 0;
+  std::deque<Frame> queue_;   // waiting, oldest first
+  Frame in_flight_;           // being written while writing_
+  std::size_t queued_bytes_ = 0;  // the queue's and the frame in flight's
+  Clock::time_point write_started_{};
   bool writing_ = false;
+  bool stalled_ = false;
   bool closed_ = false;
   std::map<std::uint32_t, ChannelId> subscriptions_;  // subscription id -> channel
   std::map<ChannelId, std::uint32_t> by_channel_;
@@ -416,7 +489,7 @@ void Server::publish(ChannelId channel, std::uint64_t log_time_ns, std::string p
       if (impl->channels[p.channel - 1].latched) impl->latched[p.channel] = {p.log_time_ns, p.body};
       for (const auto& session : sessions) {
         if (const std::uint32_t* sub = session->subscription_of(p.channel)) {
-          session->send(data_frame(*sub, p.log_time_ns, p.body));
+          session->send(data_frame(impl->channels[p.channel - 1], p.channel, *sub, p.log_time_ns, p.body));
         }
       }
     }
@@ -433,7 +506,7 @@ bool Server::has_subscribers(ChannelId channel) const {
 
 ServerStats Server::stats() const {
   const Impl& s = *impl_;
-  return ServerStats{s.clients, s.connections, s.refused, s.sent, s.dropped, s.bad};
+  return ServerStats{s.clients, s.connections, s.refused, s.sent, s.dropped, s.bad, s.stalled, s.stalls};
 }
 
 void Server::stop() {

@@ -66,6 +66,7 @@ void UpdateServiceConfig::load(ConfigNode& node) {
 
 void VizConfig::load(ConfigNode& node) {
   node.get("address", address).get("port", port).get("max_client_queue_mb", max_client_queue_mb);
+  node.get("max_client_backlog_s", max_client_backlog_s);
   node.get("max_clients", max_clients).get("map_period_s", map_period_s);
   node.get("trajectory_period_s", trajectory_period_s).get("max_trajectory_poses", max_trajectory_poses);
   node.get("world_frame", world_frame).get("imu_frame", imu_frame).get("lidar_frame", lidar_frame);
@@ -74,6 +75,8 @@ void VizConfig::load(ConfigNode& node) {
   node.check(port >= 0 && port <= 65535, "port", "must be in [0, 65535]");
   node.check(std::isfinite(max_client_queue_mb) && max_client_queue_mb >= 1.0 && max_client_queue_mb <= 4096.0,
              "max_client_queue_mb", "must be in [1, 4096] MiB");
+  node.check(std::isfinite(max_client_backlog_s) && max_client_backlog_s >= 0.1 && max_client_backlog_s <= 600.0,
+             "max_client_backlog_s", "must be in [0.1, 600] s");
   node.check(max_clients >= 1 && max_clients <= 256, "max_clients", "must be in [1, 256]");
   node.check(std::isfinite(map_period_s) && map_period_s >= 0.1 && map_period_s <= 600.0, "map_period_s",
              "must be in [0.1, 600] s");

@@ -28,7 +28,7 @@ const std::map<std::string, std::vector<std::string>>& summary_counters() {
         "history_wait_timeout", "history_refused", "recovery_scans", "recovery_ambiguous", "diverged", "observations_resent",
         "observations_given_up"}},
       {"fuse-map", {"map_observations_applied", "journal_errors", "pending_dropped", "pending_observations"}},
-      {"fuse-viz", {"connections", "messages_sent", "messages_dropped_slow_client", "client_requests_bad"}},
+      {"fuse-viz", {"connections", "messages_sent", "messages_dropped_slow_client", "client_stalls", "client_requests_bad"}},
   };
   return c;
 }

@@ -112,6 +112,9 @@ struct VizConfig {
   std::string address = "127.0.0.1";  ///< listen address: localhost unless the operator opens it
   int port = 8765;                    ///< Foxglove's default; 0 takes any free port (logged)
   double max_client_queue_mb = 64.0;  ///< per client; a slow client loses its oldest samples beyond it
+  /// Per client: samples that waited longer are dropped; a client that took none for this long is
+  /// stalled and costs the producers nothing until it reads again.
+  double max_client_backlog_s = 1.0;
   int max_clients = 16;
   double map_period_s = 1.0;          ///< the whole map is sent at most this often, when it changed
   double trajectory_period_s = 1.0;   ///< the trajectory so far, likewise
