@@ -4,18 +4,20 @@
 # the config as given, and one markdown row per run prints the ATE against the simulator's truth
 # and its ratio to the same scene without an offset.
 #
-#   bench/time_offset.sh [-c CONFIG] [-o OUTDIR] [-s SEED] [-d DURATION_S] [-t "OFFSETS_MS"] SCENARIO...
-#                        [-- --set k=v ...]
-#   defaults: config/mid360.yaml, out/bench, seed 1, the whole scenario, offsets "-50 -20 -5 0 5 20 50"
+#   bench/time_offset.sh [-c CONFIG] [-l LIDAR] [-o OUTDIR] [-s SEED] [-d DURATION_S] [-t "OFFSETS_MS"]
+#                        SCENARIO... [-- --set k=v ...]
+#   defaults: config/mid360.yaml, lidar mid360 (spinning32: pass -c config/spinning.yaml too), out/bench,
+#   seed 1, the whole scenario, offsets "-50 -20 -5 0 5 20 50"
 #
 # Simulations are cached in OUTDIR/sim-<scenario>-<seed>-<duration>-off<ms> (fuse-sim is
 # deterministic). FUSE_BIN: binaries (default build/bin).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-CONFIG=config/mid360.yaml; OUT=out/bench; SEED=1; DURATION=""; OFFSETS="-50 -20 -5 0 5 20 50"; SCENARIOS=(); EXTRA=()
+CONFIG=config/mid360.yaml; LIDAR=mid360; OUT=out/bench; SEED=1; DURATION=""; OFFSETS="-50 -20 -5 0 5 20 50"; SCENARIOS=(); EXTRA=()
 while [ $# -gt 0 ]; do
   case "$1" in
     -c) CONFIG=$2; shift 2 ;;
+    -l) LIDAR=$2; shift 2 ;;
     -o) OUT=$2; shift 2 ;;
     -s) SEED=$2; shift 2 ;;
     -d) DURATION=$2; shift 2 ;;
@@ -24,8 +26,9 @@ while [ $# -gt 0 ]; do
     *) SCENARIOS+=("$1"); shift ;;
   esac
 done
-[ ${#SCENARIOS[@]} -gt 0 ] || { echo "usage: $0 [-c CONFIG] [-o OUTDIR] [-s SEED] [-d DURATION_S] [-t \"OFFSETS_MS\"] SCENARIO... [-- --set k=v ...]" >&2; exit 2; }
+[ ${#SCENARIOS[@]} -gt 0 ] || { echo "usage: $0 [-c CONFIG] [-l LIDAR] [-o OUTDIR] [-s SEED] [-d DURATION_S] [-t \"OFFSETS_MS\"] SCENARIO... [-- --set k=v ...]" >&2; exit 2; }
 BIN=${FUSE_BIN:-build/bin}
+SUFFIX=""; [ "$LIDAR" = mid360 ] || SUFFIX="-$LIDAR"  # mid360 keeps the cache names it had
 mkdir -p "$OUT"
 get() { grep "^$1:" "$2" | head -1 | awk '{print $2}'; }
 echo "| scenario | seed | IMU offset ms | ATE m | ATE / offset 0 | scan ms mean / P95 / max | status |"
@@ -35,12 +38,12 @@ for sc in "${SCENARIOS[@]}"; do
   status=()
   for ms in $OFFSETS; do
     s=$(awk -v m="$ms" 'BEGIN{printf "%.6f", m / 1000}')
-    sim="$OUT/sim-$sc-$SEED-${DURATION:-all}-off$ms"
+    sim="$OUT/sim-$sc-$SEED-${DURATION:-all}-off$ms$SUFFIX"
     if [ ! -f "$sim/recording.mcap" ]; then
-      $BIN/fuse-sim --scenario "$sc" --seed "$SEED" ${DURATION:+--duration "$DURATION"} --imu-time-offset "$s" \
+      $BIN/fuse-sim --scenario "$sc" --seed "$SEED" --lidar "$LIDAR" ${DURATION:+--duration "$DURATION"} --imu-time-offset "$s" \
         --out "$sim" > "$sim.log" 2>&1
     fi
-    run="$OUT/run-$sc-$SEED-${DURATION:-all}-off$ms-$(basename "$CONFIG" .yaml)"
+    run="$OUT/run-$sc-$SEED-${DURATION:-all}-off$ms$SUFFIX-$(basename "$CONFIG" .yaml)"
     st=ok
     $BIN/fuse-run --config "$CONFIG" --input "$sim/recording.mcap" --out "$run" --log-level off "${EXTRA[@]}" \
       > "$run.txt" 2>&1 || st="exit $?"

@@ -141,7 +141,8 @@ TEST(StateHistory, CorrectionRepropagatesLaterEntries) {
   StateCovariance P = P_c;
   for (int k = kCorrected + 1; k <= kSamples; ++k) {
     const ImuSample a = imu_at(kT0 + (k - 1) * kDt), b = imu_at(kT0 + k * kDt);
-    propagate(x, &P, 0.5 * (a.gyro + b.gyro), 0.5 * (a.accel + b.accel), b.t - a.t, ImuNoiseConfig{});
+    propagate(x, &P, 0.5 * (a.gyro + b.gyro), 0.5 * (a.accel + b.accel), b.t - a.t, ImuNoiseConfig{},
+              ReadingChange{b.gyro - a.gyro});
   }
   expect_same_state(h.newest().x, x, 1e-12);
   EXPECT_LT((h.newest().P - P).cwiseAbs().maxCoeff(), 1e-15);

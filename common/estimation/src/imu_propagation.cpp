@@ -36,7 +36,7 @@ void ImuNoiseConfig::load(ConfigNode& node) {
 }
 
 void propagate(NavState& x, StateCovariance* P, const Eigen::Vector3d& gyro, const Eigen::Vector3d& accel,
-               double dt, const ImuNoiseConfig& noise) {
+               double dt, const ImuNoiseConfig& noise, const ReadingChange& change) {
   const Eigen::Vector3d w = gyro - x.bg;
   const Eigen::Vector3d a = accel - x.ba;
   const Eigen::Vector3d wdt = w * dt;
@@ -53,6 +53,8 @@ void propagate(NavState& x, StateCovariance* P, const Eigen::Vector3d& gyro, con
     F.block<3, 3>(Idx::kVel, Idx::kRot) = -x.R * so3::hat(a) * dt;                    // δv' = δv − R[a]×dt·δθ
     F.block<3, 3>(Idx::kVel, Idx::kBa) = -x.R * dt;                                   //       − R·dt·δb_a
     F.block<3, 2>(Idx::kVel, Idx::kGrav) = -so3::hat(x.g) * GravityTangentBasis(x.g) * dt;  // + ∂g/∂δg·dt
+    F.block<3, 1>(Idx::kRot, Idx::kTimeOffset) = Jr * change.gyro;                    // + J_r·Δω·δt_d
+    // (The velocity's R·Δf·δt_d is left out: imu_propagation.hpp, ReadingChange.)
     // Discrete noise: white noise of density σ integrated over dt has variance σ²·dt.
     const double s2 = noise.inflation * noise.inflation;
     const double qg = s2 * noise.gyro_noise_density * noise.gyro_noise_density * dt;

@@ -209,7 +209,6 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
       result = relocalise(history, scan.t_end, report);
     } else {
       PointToPlaneModel model(config_.measurement, points_L_, *map_, associator_, constraints_);
-      if (prior.P(Idx::kTimeOffset, Idx::kTimeOffset) > 0.0) model.set_time_offset_motion(prior.omega, prior.x.td);
       result = update(model, history, scan.t_end);
       report.ms_association = model.association_ms();
     }
@@ -231,11 +230,9 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
   }
   report.ms_update = ms_since(t_stage) - report.ms_association;
 
-  // 4. Map policy on the world-frame points at the posterior, where the scan is seen with the
-  // offset the update settled on.
+  // 4. Map policy on the world-frame points at the posterior.
   t_stage = Clock::now();
-  const NavState seen = moved_along(x, prior.omega, x.td - prior.x.td);
-  T_WL_ = seen.T_WI() * seen.T_IL();
+  T_WL_ = x.T_WI() * x.T_IL();
   const Eigen::Isometry3d& T_WL = T_WL_;
   const Eigen::Matrix3f R = T_WL.linear().cast<float>();
   const Eigen::Vector3f t = T_WL.translation().cast<float>();
@@ -393,6 +390,9 @@ UpdateResult LidarUpdater::relocalise(StateHistory& history, double t, ScanRepor
     const double psi = 2.0 * M_PI * k / K;
     NavState x = turned(prior.x, gap, psi > M_PI ? psi - 2.0 * M_PI : psi, up);
     StateCovariance P = prior.P;
+    // A re-localisation does not move the time offset: what it corrects is the gap's, not timing.
+    P.row(Idx::kTimeOffset).setZero();
+    P.col(Idx::kTimeOffset).setZero();
     PointToPlaneModel model(recovery_measurement_, points_L_, *map_, recovery_associator_, constraints_);
     const UpdateResult result = recovery_backend_->update(x, P, model);
     report.ms_association += model.association_ms();
@@ -447,6 +447,7 @@ UpdateResult LidarUpdater::relocalise(StateHistory& history, double t, ScanRepor
                                                     std::to_string(heading_change * 180.0 / M_PI) +
                                                     " deg off the prior's: a better fit");
   }
+  best_P(Idx::kTimeOffset, Idx::kTimeOffset) = prior.P(Idx::kTimeOffset, Idx::kTimeOffset);
   if (best.updated) history.correct(t, best_x, best_P);
   return best;
 }

@@ -33,30 +33,7 @@ double point_to_plane_residual(const NavState& x, const Constraint& c) {
   return c.normal.cast<double>().dot(x.R * q + x.p) + static_cast<double>(c.d);
 }
 
-void add_time_offset_column(LinearSystem& sys, const Eigen::Vector3d& v, const Eigen::Vector3d& omega) {
-  // ∂r/∂δt_d = H a with a = [v; ω; 0; 0]: the offset's row and column of Σ w HᵀH and Σ w Hᵀr.
-  constexpr int kT = Idx::kTimeOffset;
-  Eigen::Matrix<double, kT, 1> a = Eigen::Matrix<double, kT, 1>::Zero();
-  a.segment<3>(Idx::kPos) = v;
-  a.segment<3>(Idx::kRot) = omega;
-  const Eigen::Matrix<double, kT, 1> La = sys.information.topLeftCorner<kT, kT>() * a;
-  sys.information.block<kT, 1>(0, kT) = La;
-  sys.information.block<1, kT>(kT, 0) = La.transpose();
-  sys.information(kT, kT) = a.dot(La);
-  sys.gradient(kT) = a.dot(sys.gradient.head<kT>());
-}
-
-NavState moved_along(const NavState& x, const Eigen::Vector3d& omega, double dt) {
-  NavState out = x;
-  if (dt == 0.0) return out;
-  out.p += x.v * dt;
-  out.R = so3::Normalize(x.R * so3::Exp(omega * dt));
-  return out;
-}
-
-bool PointToPlaneModel::linearize(const NavState& x_in, int iteration, LinearSystem& out) {
-  // The pose the scan is seen at: moved along the motion by the offset's change since placing it.
-  const NavState x = time_offset_ ? moved_along(x_in, omega_, x_in.td - td_placed_) : x_in;
+bool PointToPlaneModel::linearize(const NavState& x, int iteration, LinearSystem& out) {
   const Eigen::Isometry3d T_WL = x.T_WI() * x.T_IL();
   const auto t0 = std::chrono::steady_clock::now();
   bool search = !associated_;
@@ -103,7 +80,6 @@ bool PointToPlaneModel::linearize(const NavState& x_in, int iteration, LinearSys
     out.information.topLeftCorner<6, 6>() = info6;
     out.gradient.head<6>() = grad6;
   }
-  if (time_offset_) add_time_offset_column(out, x.v, omega_);
   out.count = constraints_.constraints.size();
   if (out.count > 0) out.characteristic_length = std::sqrt(lever2 / static_cast<double>(out.count));
   return out.count > 0;

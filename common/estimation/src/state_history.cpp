@@ -92,6 +92,11 @@ Eigen::Vector3d StateHistory::step_accel(const Entry& prev, const Eigen::Vector3
   return 0.5 * (prev.accel + next_accel);
 }
 
+ReadingChange StateHistory::step_change(const Entry& prev, const Eigen::Vector3d& next_gyro) {
+  if (prev.coasting) return {};
+  return {next_gyro - prev.gyro};
+}
+
 void StateHistory::mark_newest_coasting() { entries_.back().coasting = true; }
 
 void StateHistory::reset(double t, const NavState& x, const StateCovariance& P, const ImuSample& held,
@@ -116,7 +121,8 @@ void StateHistory::refresh_to(std::size_t k) const {
     Entry& cur = entries_[stale_from_];
     cur.x = prev.x;
     cur.P = prev.P;
-    propagate(cur.x, &cur.P, 0.5 * (prev.gyro + cur.gyro), step_accel(prev, cur.accel), cur.t - prev.t, noise_);
+    propagate(cur.x, &cur.P, 0.5 * (prev.gyro + cur.gyro), step_accel(prev, cur.accel), cur.t - prev.t, noise_,
+              step_change(prev, cur.gyro));
     cur.step.apply(cur.x, cur.P, prev.t, cur.t);
   }
 }
@@ -127,7 +133,10 @@ void StateHistory::add_imu(const ImuSample& imu) {
     if (stale_entries() <= kEagerRefresh) refresh_to(entries_.size() - 1);
     const bool fresh = stale_entries() == 0;
     Entry next = entries_.back();  // a stale tail: the state is recomputed when read
-    if (fresh) propagate(next.x, &next.P, 0.5 * (next.gyro + imu.gyro), step_accel(next, imu.accel), dt, noise_);
+    if (fresh) {
+      propagate(next.x, &next.P, 0.5 * (next.gyro + imu.gyro), step_accel(next, imu.accel), dt, noise_,
+                step_change(next, imu.gyro));
+    }
     next.coasting = false;
     next.t = imu.t;
     next.step = EntryStep{};

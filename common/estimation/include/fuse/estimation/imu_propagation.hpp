@@ -35,9 +35,20 @@ struct ImuNoiseConfig {
   void load(ConfigNode& node);
 };
 
+/// How the gyro reading changed across a step (its last sample less its first). With the
+/// LiDAR-IMU time offset t_d in the state, a step whose samples are placed δ too late reads
+/// ω(t − δ) ≈ ω(t) − ω̇δ, so the step's attitude error carries ∂δθ'/∂δt_d = J_r·Δω: the offset
+/// is seen where the rotation changes, through the propagated covariance. The velocity's term
+/// R·Δf·δt_d is left out on purpose: under a vehicle's hard acceleration it let the offset take
+/// up the velocity and accelerometer-bias errors of the first seconds (docs/architecture.md,
+/// "LiDAR-IMU time offset"), and the attitude alone observes the offset.
+struct ReadingChange {
+  Eigen::Vector3d gyro = Eigen::Vector3d::Zero();
+};
+
 /// One IMU step of length dt with the (already averaged) measurement (gyro, accel).
 /// When P is given it is propagated too.
 void propagate(NavState& x, StateCovariance* P, const Eigen::Vector3d& gyro, const Eigen::Vector3d& accel,
-               double dt, const ImuNoiseConfig& noise);
+               double dt, const ImuNoiseConfig& noise, const ReadingChange& change = {});
 
 }  // namespace fuse

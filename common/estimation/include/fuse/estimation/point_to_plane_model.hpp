@@ -19,16 +19,10 @@
 
 namespace fuse {
 
-/// Jacobian row of one constraint at state x (the observed block; the time offset's column is 0:
-/// PointToPlaneModel adds it from the motion it is given).
+/// Jacobian row of one constraint at state x (the observed block). The time offset's column is 0:
+/// the state is the pose at the scan's time on the LiDAR clock, which the offset does not move;
+/// the offset is seen through the propagation (ReadingChange, imu_propagation.hpp).
 Eigen::Matrix<double, 1, kObsDim> point_to_plane_jacobian(const NavState& x, const Constraint& c);
-/// The state's pose dt later along its motion at constant world velocity x.v and body rate omega:
-/// p + v·dt, R·Exp(ω·dt) (where a scan is seen when the time offset moved by dt since placing it).
-NavState moved_along(const NavState& x, const Eigen::Vector3d& omega, double dt);
-/// Adds the time offset's row and column to normal equations over the pose and extrinsic
-/// columns: ∂r/∂δt_d = ∂r/∂δp · v + ∂r/∂δθ · ω for every constraint, so Λ and g follow from the
-/// pose block alone (no pass over the constraints).
-void add_time_offset_column(LinearSystem& sys, const Eigen::Vector3d& v, const Eigen::Vector3d& omega);
 /// Residual of one constraint at state x.
 double point_to_plane_residual(const NavState& x, const Constraint& c);
 
@@ -50,22 +44,12 @@ class PointToPlaneModel final : public MeasurementModel {
       : config_(config), points_L_(points_L), map_(map), associator_(associator), constraints_(constraints) {}
 
   bool linearize(const NavState& x, int iteration, LinearSystem& out) override;
-  /// Estimates the time offset too: the scan was placed with offset `td_placed`, and the body
-  /// moved with world velocity x.v and body rate `omega` (rad/s) at the scan end.
-  void set_time_offset_motion(const Eigen::Vector3d& omega, double td_placed) {
-    omega_ = omega;
-    td_placed_ = td_placed;
-    time_offset_ = true;
-  }
   /// Wall time spent in map association (k-nearest search + plane fits), ms.
   double association_ms() const { return association_ms_; }
 
  private:
   double association_ms_ = 0.0;
   bool associated_ = false;
-  bool time_offset_ = false;
-  Eigen::Vector3d omega_ = Eigen::Vector3d::Zero();
-  double td_placed_ = 0.0;
   Eigen::Isometry3d T_WL_associated_ = Eigen::Isometry3d::Identity();
   Config config_;
   const std::vector<Eigen::Vector3f>& points_L_;

@@ -191,6 +191,8 @@ class StateHistory {
   std::size_t find_at_or_before(double t) const;
   /// The specific force for the step from `prev` to an entry holding `next_accel`.
   static Eigen::Vector3d step_accel(const Entry& prev, const Eigen::Vector3d& next_accel);
+  /// How the gyro reading changed across the step from `prev` (nothing across a coasted step).
+  static ReadingChange step_change(const Entry& prev, const Eigen::Vector3d& next_gyro);
   /// Marks every entry after index i stale (to be recomputed from entry i and the stored IMU).
   void repropagate_from(std::size_t i) { stale_from_ = std::min(stale_from_, i + 1); }
   /// Recomputes the stale entries up to index k (inclusive).
