@@ -164,7 +164,7 @@ struct RecoveryConfig {
 /// current estimate; estimated, it is part of the state with its own covariance.
 struct TimeOffsetConfig {
   double initial_s = 0.0;      ///< the offset assumed at the start (s)
-  bool estimate = true;        ///< estimate it online (false: initial_s stays)
+  bool estimate = false;       ///< estimate it online (false: initial_s stays)
   double std_s = 0.02;         ///< prior σ when estimated (s)
   double max_s = 0.1;          ///< bound: an estimate beyond ±max_s is held at it and counted
   double random_walk = 1e-4;   ///< s/√s: how fast the offset may drift (clock drift, jitter)
