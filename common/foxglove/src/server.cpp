@@ -326,7 +326,13 @@ class Session : public std::enable_shared_from_this<Session> {
   void review_backlog(Clock::time_point now) {
     const Clock::time_point oldest = now - std::chrono::duration_cast<Clock::duration>(
                                                std::chrono::duration<double>(server_.config.max_client_backlog_s));
-    if (!queue_.empty() && queue_.front().queued < oldest) {
+    // Rebuild the queue only when its aged front holds a frame to drop: the frames kept (text, a
+    // latched channel's) stay aged at the front, and a rebuild on every send would be wasted.
+    bool droppable = false;
+    for (auto it = queue_.begin(); it != queue_.end() && it->queued < oldest && !droppable; ++it) {
+      droppable = it->binary && !it->latched;
+    }
+    if (droppable) {
       std::set<ChannelId> newer;  // latched channels whose newest queued frame was met
       std::deque<Frame> kept;
       for (auto i = queue_.size(); i-- > 0;) {  // newest first
