@@ -18,7 +18,10 @@
 #                Foxglove client subscribed to every channel (VIZ_CLIENT, default
 #                build/test/viz/client/viz_client.mjs, its npm packages installed by the tests), which
 #                stays connected, is stopped with SIGSTOP from 20 s to 30 s, or is SIGKILLed at 20 s;
-#                fuse-viz's RSS is printed at 5 s and at the end)
+#                fuse-viz's RSS is printed at 5 s and at the end), VIZ_CLIENT_NICE (the viewer client
+#                at that niceness; unset, it runs in the idle scheduling class, SCHED_IDLE, which
+#                stands in for a viewer on another computer: on a vehicle the operator's Foxglove
+#                does not share the estimator's cores)
 #
 # 1. Simulates a corridor recording of DURATION_S (cached under out/bench/).
 # 2. fuse-run RUN_REPEATS times: per-scan time (mean / p95) and wall time, scans/s.
@@ -96,6 +99,7 @@ echo "client_nice: ${CLIENT_NICE:-0}"
 echo "state_rt: ${STATE_RT:-none}"
 echo "client_rt: ${CLIENT_RT:-none}"
 echo "viz: ${VIZ:-off}"
+if [ -n "${VIZ_CLIENT_NICE:-}" ]; then echo "viz_client_priority: nice $VIZ_CLIENT_NICE"; else echo "viz_client_priority: idle"; fi
 VIZ_CLIENT=${VIZ_CLIENT:-build/test/viz/client/viz_client.mjs}
 rss_kb() { awk '/^VmRSS:/ {print $2}' "/proc/$1/status" 2> /dev/null || echo nan; }
 # CPU seconds (user + system) a live process used so far.
@@ -146,7 +150,8 @@ for i in $(seq "$RT_REPEATS"); do
     PIDS+=("$v")
     for _ in $(seq 100); do grep -q "on ws://" "$d/logs/fuse-viz.log" && break; sleep 0.1; done
     url=$(grep -o "ws://[0-9.]*:[0-9]*" "$d/logs/fuse-viz.log" | head -1)
-    nice -n "${VIZ_CLIENT_NICE:-0}" node "$VIZ_CLIENT" "$url" "$d/viz-client.jsonl" > "$d/logs/viz-client.log" 2>&1 &
+    if [ -n "${VIZ_CLIENT_NICE:-}" ]; then viz_prio=(nice -n "$VIZ_CLIENT_NICE"); else viz_prio=(chrt -i 0); fi
+    "${viz_prio[@]}" node "$VIZ_CLIENT" "$url" "$d/viz-client.jsonl" > "$d/logs/viz-client.log" 2>&1 &
     vc=$!
     PIDS+=("$vc")
     ( sleep "$LEAD_S"; sleep 5; rss_kb "$v" > "$d/viz_rss_start"

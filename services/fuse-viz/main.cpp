@@ -12,6 +12,8 @@
 
 #include <cerrno>
 #include <cstring>
+#include <filesystem>
+#include <string>
 
 #include "fuse/core/logging.hpp"
 #include "fuse/service/health.hpp"
@@ -34,10 +36,15 @@ int main(int argc, char** argv) {
       "error."};
   if (!service::start_service(cli, argc, argv, args, config, exit_code)) return exit_code;
   auto log = logger("fuse-viz");
-  // Before any thread of its own starts, so that they all inherit it: a viewer yields the CPU to
-  // the estimator (viz.nice).
-  if (::setpriority(PRIO_PROCESS, 0, config.viz.nice) != 0) {
-    log->warn("could not lower its priority to niceness {} (viz.nice): {}", config.viz.nice, std::strerror(errno));
+  // A viewer yields the CPU to the estimator (viz.nice). Niceness is per thread on Linux: every
+  // thread that exists now (start-up made a signal thread) takes it, and later ones inherit it.
+  std::string failed;
+  for (const auto& task : std::filesystem::directory_iterator("/proc/self/task")) {
+    const auto tid = static_cast<id_t>(std::stoul(task.path().filename().string()));
+    if (::setpriority(PRIO_PROCESS, tid, config.viz.nice) != 0) failed = std::strerror(errno);
+  }
+  if (!failed.empty()) {
+    log->warn("could not lower its priority to niceness {} (viz.nice): {}", config.viz.nice, failed);
   }
   try {
     auto participant = transport::make_participant(config.transport, "fuse-viz");

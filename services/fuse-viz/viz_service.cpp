@@ -53,11 +53,6 @@ VizService::VizService(const service::SystemConfig& config, transport::Participa
       participant, topics::kCorrected, kCorrectedDepth,
       guarded(topics::kCorrected, [this](const fuse_msgs::StateEstimate& s) { return Messages{view_.corrected(s)}; }),
       bad(topics::kCorrected));
-  world_scans_ = std::make_unique<Subscriber<fuse_msgs::WorldScan>>(
-      participant, topics::kWorldScan, guarded(topics::kWorldScan, [this](const fuse_msgs::WorldScan& s) {
-        return wanted(Topic::kScan) ? Messages{view_.world_scan(s)} : Messages{};
-      }),
-      bad(topics::kWorldScan));
   chunks_ = std::make_unique<Subscriber<fuse_msgs::MapChunk>>(
       participant, topics::kMapChunk, guarded(topics::kMapChunk, [this](const fuse_msgs::MapChunk& c) {
         view_.chunk(c);
@@ -69,7 +64,7 @@ VizService::VizService(const service::SystemConfig& config, transport::Participa
         return wanted(Topic::kHealth) ? Messages{view_.health(h)} : Messages{};
       }),
       bad(topics::kHealth));
-  periodic_ = std::thread([this] { run_periodic(); });  // also makes the odometry reader on demand
+  periodic_ = std::thread([this] { run_periodic(); });  // also makes the odometry and scan readers on demand
 }
 
 VizService::~VizService() { stop(); }
@@ -80,30 +75,46 @@ void VizService::stop() {
     stopping_ = true;
   }
   wake_.notify_all();
-  if (periodic_.joinable()) periodic_.join();  // before odometry_, which that thread owns
+  if (periodic_.joinable()) periodic_.join();  // before odometry_ and world_scans_, which that thread owns
   odometry_.reset();
-  corrected_.reset();
   world_scans_.reset();
+  corrected_.reset();
   chunks_.reset();
   health_.reset();
   server_.stop();
 }
 
-void VizService::follow_odometry_demand() {
-  const bool want = wanted(Topic::kPose) || wanted(Topic::kTf);
-  if (want == (odometry_ != nullptr)) return;
+void VizService::follow_demand() {
   namespace topics = transport::topics;
-  if (!want) {
-    odometry_.reset();  // waits for a callback in flight: mutex_ must not be held here
-    logger("fuse-viz")->info("no client wants /fuse/pose or /tf: stopped reading {}", topics::kOdometry);
-    return;
+  const bool want_odometry = wanted(Topic::kPose) || wanted(Topic::kTf);
+  if (want_odometry != (odometry_ != nullptr)) {
+    if (!want_odometry) {
+      odometry_.reset();  // waits for a callback in flight: mutex_ must not be held here
+      logger("fuse-viz")->info("no client wants /fuse/pose or /tf: stopped reading {}", topics::kOdometry);
+    } else {
+      odometry_ = std::make_unique<transport::Subscriber<fuse_msgs::StateEstimate>>(
+          participant_, topics::kOdometry, guarded(topics::kOdometry, [this](const fuse_msgs::StateEstimate& s) {
+            return view_.odometry(s, wanted(Topic::kPose), wanted(Topic::kTf));
+          }),
+          bad(topics::kOdometry));
+      logger("fuse-viz")->info("a client wants /fuse/pose or /tf: reading {}", topics::kOdometry);
+    }
   }
-  odometry_ = std::make_unique<transport::Subscriber<fuse_msgs::StateEstimate>>(
-      participant_, topics::kOdometry, guarded(topics::kOdometry, [this](const fuse_msgs::StateEstimate& s) {
-        return view_.odometry(s, wanted(Topic::kPose), wanted(Topic::kTf));
-      }),
-      bad(topics::kOdometry));
-  logger("fuse-viz")->info("a client wants /fuse/pose or /tf: reading {}", topics::kOdometry);
+  const bool want_scan = wanted(Topic::kScan);
+  if (want_scan != (world_scans_ != nullptr)) {
+    if (!want_scan) {
+      world_scans_.reset();
+      logger("fuse-viz")->info("no client wants /fuse/scan: stopped reading {}", topics::kWorldScan);
+    } else {
+      using Messages = std::vector<service::FoxgloveMessage>;
+      world_scans_ = std::make_unique<transport::Subscriber<fuse_msgs::WorldScan>>(
+          participant_, topics::kWorldScan, guarded(topics::kWorldScan, [this](const fuse_msgs::WorldScan& s) {
+            return wanted(Topic::kScan) ? Messages{view_.world_scan(s)} : Messages{};
+          }),
+          bad(topics::kWorldScan));
+      logger("fuse-viz")->info("a client wants /fuse/scan: reading {}", topics::kWorldScan);
+    }
+  }
 }
 
 void VizService::send(const service::FoxgloveMessage& m) {
@@ -144,7 +155,7 @@ void VizService::run_periodic() {
     }
     lock.unlock();
     for (const auto& m : out) send(m);
-    follow_odometry_demand();
+    follow_demand();
     lock.lock();
   }
 }

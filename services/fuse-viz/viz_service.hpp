@@ -65,9 +65,12 @@ class VizService {
   }
   /// Publishes the map and the trajectory when changed, at their periods (own thread).
   void run_periodic();
-  /// The IMU-rate odometry is read only while a client wants /fuse/pose or /tf: without one,
-  /// fuse-state sends it to one reader fewer. Called by the periodic thread, without mutex_.
-  void follow_odometry_demand();
+  /// The IMU-rate odometry is read only while a client wants /fuse/pose or /tf, and the deskewed
+  /// world scan only while one wants /fuse/scan: without one, fuse-state sends the odometry to one
+  /// reader fewer and fuse-update neither builds nor sends the world scan (it publishes only to a
+  /// matched reader). A stalled client does not count (foxglove::Server). Called by the periodic
+  /// thread, without mutex_.
+  void follow_demand();
 
   service::VizConfig config_;
   transport::Participant& participant_;
@@ -83,8 +86,8 @@ class VizService {
   std::condition_variable wake_;
   std::thread periodic_;
 
-  // Readers last: they call into everything above. odometry_ is made and dropped by the
-  // periodic thread only (follow_odometry_demand).
+  // Readers last: they call into everything above. odometry_ and world_scans_ are made and
+  // dropped by the periodic thread only (follow_demand).
   std::unique_ptr<transport::Subscriber<fuse_msgs::StateEstimate>> odometry_;
   std::unique_ptr<transport::Subscriber<fuse_msgs::StateEstimate>> corrected_;
   std::unique_ptr<transport::Subscriber<fuse_msgs::WorldScan>> world_scans_;

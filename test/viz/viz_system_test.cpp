@@ -14,7 +14,9 @@
 // DDS domain 9 belongs to this file.
 #include <gtest/gtest.h>
 #include <json/json.h>
+#include <sys/resource.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -127,12 +129,27 @@ TEST(VizSystem, AFoxgloveClientSeesWhatTheSystemEstimates) {
     return n;
   };
   ASSERT_TRUE(wait_until([&] { return count("channel") == 8; }, 60s)) << read_file(dir + "/logs/client.log");
-  // fuse-viz reads the IMU-rate odometry only while a client wants /fuse/pose or /tf.
+  // fuse-viz reads the IMU-rate odometry only while a client wants /fuse/pose or /tf, and the
+  // world scan only while one wants /fuse/scan.
   EXPECT_EQ(viz_log.find("reading state/odometry"), std::string::npos) << "read before any client wanted it";
+  EXPECT_EQ(viz_log.find("reading update/world_scan"), std::string::npos) << "read before any client wanted it";
   ASSERT_TRUE(wait_until([&] {
-    return read_file(dir + "/logs/fuse-viz.log").find("a client wants /fuse/pose or /tf: reading state/odometry") !=
-           std::string::npos;
+    const std::string log = read_file(dir + "/logs/fuse-viz.log");
+    return log.find("a client wants /fuse/pose or /tf: reading state/odometry") != std::string::npos &&
+           log.find("a client wants /fuse/scan: reading update/world_scan") != std::string::npos;
   }, 60s)) << read_file(dir + "/logs/fuse-viz.log");
+  // Every thread of fuse-viz (its own, the DDS library's, the server's, the signal thread made at
+  // start-up) runs at niceness viz.nice (10 by default): the viewer yields the CPU to the estimator.
+  std::size_t threads = 0;
+  for (const auto& task : fs::directory_iterator("/proc/" + std::to_string(services.at("fuse-viz").pid()) + "/task")) {
+    const auto tid = static_cast<id_t>(std::stoul(task.path().filename().string()));
+    errno = 0;
+    const int nice = ::getpriority(PRIO_PROCESS, tid);
+    if (errno != 0) continue;  // the thread ended meanwhile
+    ++threads;
+    EXPECT_EQ(nice, 10) << "fuse-viz thread " << tid;
+  }
+  EXPECT_GE(threads, 3u) << "fuse-viz's threads were not found";
 
   Process recorder = Process::spawn(args("fuse-record", {"--out", dir + "/recording", "--calibration-from", kRecording}),
                                     dir + "/logs/fuse-record.log");
@@ -223,6 +240,9 @@ TEST(VizSystem, AFoxgloveClientSeesWhatTheSystemEstimates) {
   EXPECT_TRUE(wait_until([&] {
     return read_file(dir + "/logs/fuse-viz.log").find("stopped reading state/odometry") != std::string::npos;
   }, 60s)) << "the odometry reader outlived its last client";
+  EXPECT_TRUE(wait_until([&] {
+    return read_file(dir + "/logs/fuse-viz.log").find("stopped reading update/world_scan") != std::string::npos;
+  }, 60s)) << "the world scan reader outlived its last client";
   const std::vector<Json::Value> all = json_lines(lines_path);
   ASSERT_FALSE(all.empty());
   const Json::Value& summary = all.back();
