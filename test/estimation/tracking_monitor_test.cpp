@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "../core/config_checks.hpp"
+#include "fuse/estimation/estimator_config.hpp"
 
 namespace fuse {
 namespace {
@@ -225,6 +226,11 @@ TEST(TrackingConfig, BadValuesAreRefusedNamingTheKey) {
   expect_refused_naming_the_key<TrackingConfig>({"min_fit: 2", "min_constraints: -1", "max_failed_relocalisations: 0",
                                                  "max_poor_fits: 0", "max_time_without_update_s: 0",
                                                  "max_position_std: -1", "max_lost_s: -1", "typo: 1"});
+}
+
+TEST(TimeOffsetConfig, BadValuesAreRefusedNamingTheKey) {
+  expect_refused_naming_the_key<TimeOffsetConfig>({"max_s: 0", "initial_s: 0.5", "std_s: 0", "random_walk: -1",
+                                                   "max_step_sigmas: 0.5", "typo: 1"});
 }
 
 }  // namespace

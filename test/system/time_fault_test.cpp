@@ -171,6 +171,7 @@ TEST_P(ImuDropout, IsCoastedAndReLocalised) {
   EXPECT_EQ(r.count("imu_gap"), 1u);
   EXPECT_GE(r.count("scan_ahead_of_imu"), 1u) << "no scan ended inside the dropout";
   EXPECT_GE(r.count("recovery_scans"), 1u) << "the scans in the dropout were not re-localised";
+  EXPECT_EQ(r.count("time_offset_at_bound"), 0u) << "the time offset ran to its bound across the dropout";
   EXPECT_LE(r.ate, kAteFactor * clean_ate());
   EXPECT_EQ(r.summary.tracking, TrackingStatus::kTracking) << r.summary.tracking_reason;
 }

@@ -109,7 +109,25 @@ void LidarUpdater::set_map_mode(const std::string& mode) {
 UpdateResult LidarUpdater::update(MeasurementModel& model, StateHistory& history, double t) {
   StateQuery prior = history.query(t);
   UpdateBackend& backend = needs_recovery(prior.P) ? *recovery_backend_ : *backend_;
+  const NavState x0 = prior.x;
+  const StateCovariance P0 = prior.P;
   UpdateResult result = backend.update(prior.x, prior.P, model);
+  const double td_var = P0(Idx::kTimeOffset, Idx::kTimeOffset);
+  const double td_step = prior.x.td - x0.td;
+  if (result.updated && td_var > 0.0 && std::abs(td_step) > config_.time_offset.max_step_sigmas * std::sqrt(td_var)) {
+    // More than the offset's prior allows in one scan: an attitude innovation it cannot explain.
+    // Update again with the offset held (its row and column out), keeping its variance.
+    counters_.count("time_offset_step_held",
+                    fmt::format("the scan at t={:.6f} would move the LiDAR-IMU time offset by {:+.4f} s, more than "
+                                "estimator.time_offset.max_step_sigmas = {} of its σ {:.4f} s: updated with the offset held",
+                                t, td_step, config_.time_offset.max_step_sigmas, std::sqrt(td_var)));
+    prior.x = x0;
+    prior.P = P0;
+    prior.P.row(Idx::kTimeOffset).setZero();
+    prior.P.col(Idx::kTimeOffset).setZero();
+    result = backend.update(prior.x, prior.P, model);
+    prior.P(Idx::kTimeOffset, Idx::kTimeOffset) = td_var;
+  }
   const double bound = config_.time_offset.max_s;
   if (result.updated && std::abs(prior.x.td) > bound) {
     counters_.count("time_offset_at_bound",

@@ -96,8 +96,11 @@ void StateTracker::use(const ImuSample& imu) {
                                 imu.t, coasted_ ? "coasted" : "extrapolated", history_.newest().t));
     return;
   }
+  // After a coast to a scan inside the gap (coast_to), this sample closes the gap however short its
+  // last stretch: taken as a plain IMU step, that stretch would add no unmodelled motion.
+  const bool closes_coast = coasted_;
   coasted_ = false;
-  if (step > config_.divergence.max_imu_gap) {
+  if (step > config_.divergence.max_imu_gap || closes_coast) {
     coast_across_gap(imu);
     return;
   }
@@ -188,7 +191,7 @@ void StateTracker::coast_across_gap(const ImuSample& imu) {
   // the unmodelled motion; the sample's accelerometer levels the coasted attitude.
   constexpr double kLastStep = 0.001;  // s: the real sample closes the gap over the last millisecond
   const double reached = history_.newest().t;
-  coast(imu.gyro - history_.newest().x.bg, imu.t - kLastStep);
+  coast(imu.gyro - history_.newest().x.bg, std::max(imu.t - kLastStep, reached));
   history_.add_step_to_newest(gap_step(reached, &imu.accel));
   history_.add_imu(imu);
 }

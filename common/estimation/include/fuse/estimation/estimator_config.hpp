@@ -164,10 +164,14 @@ struct RecoveryConfig {
 /// current estimate; estimated, it is part of the state with its own covariance.
 struct TimeOffsetConfig {
   double initial_s = 0.0;      ///< the offset assumed at the start (s)
-  bool estimate = false;       ///< estimate it online (false: initial_s stays)
+  bool estimate = true;        ///< estimate it online (false: initial_s stays)
   double std_s = 0.02;         ///< prior σ when estimated (s)
   double max_s = 0.1;          ///< bound: an estimate beyond ±max_s is held at it and counted
   double random_walk = 1e-4;   ///< s/√s: how fast the offset may drift (clock drift, jitter)
+  /// One scan's update may move the offset by at most this many of its prior σ: a larger step is
+  /// an attitude innovation the offset cannot explain (e.g. after a re-localisation, whose
+  /// attitude is more confident than right), so the scan is updated again with the offset held.
+  double max_step_sigmas = 5.0;
   void load(ConfigNode& node);
 };
 
