@@ -28,8 +28,10 @@ void InitialCovarianceConfig::load(ConfigNode& node) {
 
 void TimeOffsetConfig::load(ConfigNode& node) {
   node.get("initial_s", initial_s).get("estimate", estimate).get("std_s", std_s).get("max_s", max_s);
-  node.get("random_walk", random_walk).get("max_step_sigmas", max_step_sigmas);
-  node.check(std::isfinite(max_step_sigmas) && max_step_sigmas >= 1.0, "max_step_sigmas", "must be at least 1");
+  node.get("random_walk", random_walk).get("hold_after_relocalisation_s", hold_after_relocalisation_s);
+  node.check(std::isfinite(hold_after_relocalisation_s) && hold_after_relocalisation_s >= 0.0 &&
+                 hold_after_relocalisation_s <= 60.0,
+             "hold_after_relocalisation_s", "must be in [0, 60] s");
   node.check(std::isfinite(max_s) && max_s > 0.0 && max_s <= 1.0, "max_s", "must be in (0, 1] s");
   node.check(std::isfinite(initial_s) && std::abs(initial_s) <= max_s, "initial_s", "must be within ±max_s");
   node.check(std::isfinite(std_s) && std_s > 0.0 && std_s <= 1.0, "std_s", "must be in (0, 1] s");

@@ -109,25 +109,21 @@ void LidarUpdater::set_map_mode(const std::string& mode) {
 UpdateResult LidarUpdater::update(MeasurementModel& model, StateHistory& history, double t) {
   StateQuery prior = history.query(t);
   UpdateBackend& backend = needs_recovery(prior.P) ? *recovery_backend_ : *backend_;
-  const NavState x0 = prior.x;
-  const StateCovariance P0 = prior.P;
-  UpdateResult result = backend.update(prior.x, prior.P, model);
-  const double td_var = P0(Idx::kTimeOffset, Idx::kTimeOffset);
-  const double td_step = prior.x.td - x0.td;
-  if (result.updated && td_var > 0.0 && std::abs(td_step) > config_.time_offset.max_step_sigmas * std::sqrt(td_var)) {
-    // More than the offset's prior allows in one scan: an attitude innovation it cannot explain.
-    // Update again with the offset held (its row and column out), keeping its variance.
-    counters_.count("time_offset_step_held",
-                    fmt::format("the scan at t={:.6f} would move the LiDAR-IMU time offset by {:+.4f} s, more than "
-                                "estimator.time_offset.max_step_sigmas = {} of its σ {:.4f} s: updated with the offset held",
-                                t, td_step, config_.time_offset.max_step_sigmas, std::sqrt(td_var)));
-    prior.x = x0;
-    prior.P = P0;
+  const double td_var = prior.P(Idx::kTimeOffset, Idx::kTimeOffset);
+  const bool hold_td = td_var > 0.0 && t >= relocalised_at_ &&
+                       t - relocalised_at_ < config_.time_offset.hold_after_relocalisation_s;
+  if (hold_td) {
+    // Just re-localised: the attitude is more confident than right, and the offset's coupling to
+    // it (J_r·Δω, imu_propagation.hpp) would take up the difference. Held: row and column out.
+    counters_.count("time_offset_held_after_relocalisation",
+                    fmt::format("scan at t={:.6f}, {:.2f} s after a re-localisation: the LiDAR-IMU time offset is held "
+                                "(estimator.time_offset.hold_after_relocalisation_s = {} s)",
+                                t, t - relocalised_at_, config_.time_offset.hold_after_relocalisation_s));
     prior.P.row(Idx::kTimeOffset).setZero();
     prior.P.col(Idx::kTimeOffset).setZero();
-    result = backend.update(prior.x, prior.P, model);
-    prior.P(Idx::kTimeOffset, Idx::kTimeOffset) = td_var;
   }
+  UpdateResult result = backend.update(prior.x, prior.P, model);
+  if (hold_td) prior.P(Idx::kTimeOffset, Idx::kTimeOffset) = td_var;
   const double bound = config_.time_offset.max_s;
   if (result.updated && std::abs(prior.x.td) > bound) {
     counters_.count("time_offset_at_bound",
@@ -466,7 +462,10 @@ UpdateResult LidarUpdater::relocalise(StateHistory& history, double t, ScanRepor
                                                     " deg off the prior's: a better fit");
   }
   best_P(Idx::kTimeOffset, Idx::kTimeOffset) = prior.P(Idx::kTimeOffset, Idx::kTimeOffset);
-  if (best.updated) history.correct(t, best_x, best_P);
+  if (best.updated) {
+    history.correct(t, best_x, best_P);
+    relocalised_at_ = t;
+  }
   return best;
 }
 

@@ -168,10 +168,10 @@ struct TimeOffsetConfig {
   double std_s = 0.02;         ///< prior σ when estimated (s)
   double max_s = 0.1;          ///< bound: an estimate beyond ±max_s is held at it and counted
   double random_walk = 1e-4;   ///< s/√s: how fast the offset may drift (clock drift, jitter)
-  /// One scan's update may move the offset by at most this many of its prior σ: a larger step is
-  /// an attitude innovation the offset cannot explain (e.g. after a re-localisation, whose
-  /// attitude is more confident than right), so the scan is updated again with the offset held.
-  double max_step_sigmas = 5.0;
+  /// For this long after a re-localisation the offset is held (the scans update everything
+  /// else): a re-localised attitude is more confident than right, and the offset's coupling to
+  /// the attitude would take up the difference (docs/architecture.md, "Across an IMU dropout").
+  double hold_after_relocalisation_s = 1.0;
   void load(ConfigNode& node);
 };
 

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -107,6 +108,8 @@ class LidarUpdater {
   float voxel_size_;  ///< downsampling voxel in use (adapts to max_points)
   Deskewer deskewer_;
   int scans_without_constraints_ = 0;
+  /// When the last re-localisation was taken: the time offset is held for a while after it.
+  double relocalised_at_ = -std::numeric_limits<double>::infinity();
   /// World position of the last re-localised scan while its map hold lasts (recovery.map_hold_distance).
   std::optional<Eigen::Vector3d> hold_from_;
   Counters counters_;
