@@ -14,6 +14,7 @@
 #include <cstring>
 #include <filesystem>
 #include <string>
+#include <system_error>
 
 #include "fuse/core/logging.hpp"
 #include "fuse/service/health.hpp"
@@ -39,10 +40,12 @@ int main(int argc, char** argv) {
   // A viewer yields the CPU to the estimator (viz.nice). Niceness is per thread on Linux: every
   // thread that exists now (start-up made a signal thread) takes it, and later ones inherit it.
   std::string failed;
-  for (const auto& task : std::filesystem::directory_iterator("/proc/self/task")) {
+  std::error_code no_proc;
+  for (const auto& task : std::filesystem::directory_iterator("/proc/self/task", no_proc)) {
     const auto tid = static_cast<id_t>(std::stoul(task.path().filename().string()));
     if (::setpriority(PRIO_PROCESS, tid, config.viz.nice) != 0) failed = std::strerror(errno);
   }
+  if (no_proc) failed = "cannot list its threads in /proc/self/task: " + no_proc.message();
   if (!failed.empty()) {
     log->warn("could not lower its priority to niceness {} (viz.nice): {}", config.viz.nice, failed);
   }

@@ -86,35 +86,12 @@ void VizService::stop() {
 
 void VizService::follow_demand() {
   namespace topics = transport::topics;
-  const bool want_odometry = wanted(Topic::kPose) || wanted(Topic::kTf);
-  if (want_odometry != (odometry_ != nullptr)) {
-    if (!want_odometry) {
-      odometry_.reset();  // waits for a callback in flight: mutex_ must not be held here
-      logger("fuse-viz")->info("no client wants /fuse/pose or /tf: stopped reading {}", topics::kOdometry);
-    } else {
-      odometry_ = std::make_unique<transport::Subscriber<fuse_msgs::StateEstimate>>(
-          participant_, topics::kOdometry, guarded(topics::kOdometry, [this](const fuse_msgs::StateEstimate& s) {
-            return view_.odometry(s, wanted(Topic::kPose), wanted(Topic::kTf));
-          }),
-          bad(topics::kOdometry));
-      logger("fuse-viz")->info("a client wants /fuse/pose or /tf: reading {}", topics::kOdometry);
-    }
-  }
-  const bool want_scan = wanted(Topic::kScan);
-  if (want_scan != (world_scans_ != nullptr)) {
-    if (!want_scan) {
-      world_scans_.reset();
-      logger("fuse-viz")->info("no client wants /fuse/scan: stopped reading {}", topics::kWorldScan);
-    } else {
-      using Messages = std::vector<service::FoxgloveMessage>;
-      world_scans_ = std::make_unique<transport::Subscriber<fuse_msgs::WorldScan>>(
-          participant_, topics::kWorldScan, guarded(topics::kWorldScan, [this](const fuse_msgs::WorldScan& s) {
-            return wanted(Topic::kScan) ? Messages{view_.world_scan(s)} : Messages{};
-          }),
-          bad(topics::kWorldScan));
-      logger("fuse-viz")->info("a client wants /fuse/scan: reading {}", topics::kWorldScan);
-    }
-  }
+  using Messages = std::vector<service::FoxgloveMessage>;
+  follow(odometry_, wanted(Topic::kPose) || wanted(Topic::kTf), topics::kOdometry, "/fuse/pose or /tf",
+         [this](const fuse_msgs::StateEstimate& s) { return view_.odometry(s, wanted(Topic::kPose), wanted(Topic::kTf)); });
+  follow(world_scans_, wanted(Topic::kScan), topics::kWorldScan, "/fuse/scan", [this](const fuse_msgs::WorldScan& s) {
+    return wanted(Topic::kScan) ? Messages{view_.world_scan(s)} : Messages{};
+  });
 }
 
 void VizService::send(const service::FoxgloveMessage& m) {

@@ -19,6 +19,7 @@
 #include <thread>
 #include <vector>
 
+#include "fuse/core/logging.hpp"
 #include "fuse/foxglove/server.hpp"
 #include "fuse/service/foxglove_view.hpp"
 #include "fuse/service/health.hpp"
@@ -71,6 +72,20 @@ class VizService {
   /// matched reader). A stalled client does not count (foxglove::Server). Called by the periodic
   /// thread, without mutex_.
   void follow_demand();
+  /// Makes `reader` of `topic` while `want`, drops it (waiting for a callback in flight, so
+  /// mutex_ must not be held) when not; logs each change naming the `channels` that want it.
+  template <class Msg, class Convert>
+  void follow(std::unique_ptr<transport::Subscriber<Msg>>& reader, bool want, const char* topic, const char* channels,
+              Convert convert) {
+    if (want == (reader != nullptr)) return;
+    if (!want) {
+      reader.reset();
+      logger("fuse-viz")->info("no client wants {}: stopped reading {}", channels, topic);
+      return;
+    }
+    reader = std::make_unique<transport::Subscriber<Msg>>(participant_, topic, guarded(topic, convert), bad(topic));
+    logger("fuse-viz")->info("a client wants {}: reading {}", channels, topic);
+  }
 
   service::VizConfig config_;
   transport::Participant& participant_;
