@@ -1,10 +1,14 @@
 // iVox specifics (ivox.hpp): the LRU capacity bounds the voxel count and evicts the voxels least
-// recently inserted into (touch time = the insert() call); a full voxel refuses further points.
+// recently inserted into (touch time = the insert() call); a full voxel refuses further points;
+// evictions delete from the hash table in place and leave every other voxel findable; the table
+// is sized once for the capacity.
 #include "fuse/association/ivox.hpp"
 
 #include <gtest/gtest.h>
 
 #include <random>
+#include <set>
+#include <tuple>
 
 #include "oracle.hpp"
 
@@ -48,7 +52,7 @@ TEST(IVox, CapacityBoundsVoxelCountOverALongRun) {
   for (int batch = 0; batch < 20; ++batch) {
     ivox.insert(test::random_cloud(rng, 2000, 20.0f));  // ~64000 voxels touched in total
     EXPECT_LE(ivox.num_voxels(), kCapacity);
-    EXPECT_GT(ivox.num_voxels(), kCapacity / 2);  // evicts a fraction at a time, not everything
+    EXPECT_GT(ivox.num_voxels(), kCapacity / 2);  // evicts what it must, not everything
   }
   std::size_t visited = 0;
   ivox.for_each_point([&](const Eigen::Vector3f&) { ++visited; });
@@ -57,6 +61,52 @@ TEST(IVox, CapacityBoundsVoxelCountOverALongRun) {
   const auto last = test::random_cloud(rng, 200, 20.0f);
   ivox.insert(last);
   for (const Eigen::Vector3f& p : last) ASSERT_TRUE(has_points_near(ivox, p)) << p.transpose();
+}
+
+TEST(IVox, EvictionsLeaveEveryOtherVoxelFindable) {
+  // Many evictions from a table whose probe runs are long (a dense cube of small voxels): after
+  // each batch every held point is found at distance 0, the voxel count is the number of distinct
+  // voxels held, and k-nearest answers equal the brute-force ones over the held points.
+  SpatialIndexConfig cfg = small_config(1500);
+  cfg.voxel_size = 0.25;
+  cfg.neighborhood = "nearby26";
+  IVox ivox(cfg);
+  std::mt19937 rng(19);
+  for (int batch = 0; batch < 30; ++batch) {
+    ivox.insert(test::random_cloud(rng, 400, 3.0f));
+    std::vector<Eigen::Vector3f> held;
+    std::set<std::tuple<int, int, int>> keys;
+    ivox.for_each_point([&](const Eigen::Vector3f& p) {
+      held.push_back(p);
+      const Eigen::Vector3i k = (p / 0.25f).array().floor().cast<int>();
+      keys.emplace(k.x(), k.y(), k.z());
+    });
+    ASSERT_EQ(held.size(), ivox.size());
+    ASSERT_EQ(keys.size(), ivox.num_voxels()) << "batch " << batch;
+    Neighbors nb;
+    for (const Eigen::Vector3f& p : held) {
+      ivox.knn(p, 1, 0.01f, nb);
+      ASSERT_EQ(nb.count, 1) << "batch " << batch << ": held point " << p.transpose() << " not found";
+      ASSERT_EQ(nb.dist2[0], 0.0f);
+    }
+    for (const Eigen::Vector3f& q : test::random_cloud(rng, 50, 3.0f)) {
+      ivox.knn(q, 5, 0.25f, nb);  // within one voxel: the 26-neighbourhood covers the radius
+      const std::vector<float> expected = test::brute_force_knn(held, q, 5, 0.25f);
+      ASSERT_EQ(static_cast<std::size_t>(nb.count), expected.size());
+      for (int i = 0; i < nb.count; ++i) ASSERT_FLOAT_EQ(nb.dist2[i], expected[static_cast<std::size_t>(i)]);
+    }
+  }
+}
+
+TEST(IVox, TheTableIsSizedOnceForItsCapacity) {
+  // No insert pays for a rehash: the slots are there from the start, for max_voxels at half load.
+  IVox ivox(small_config(5000));
+  const std::size_t slots = ivox.num_slots();
+  EXPECT_GE(slots, 10000u);
+  std::mt19937 rng(7);
+  for (int batch = 0; batch < 40; ++batch) ivox.insert(test::random_cloud(rng, 1000, 30.0f));
+  EXPECT_EQ(ivox.num_voxels(), 5000u);  // full, evicting one voxel per new one
+  EXPECT_EQ(ivox.num_slots(), slots);
 }
 
 TEST(IVox, FullVoxelRefusesPoints) {

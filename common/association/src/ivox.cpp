@@ -7,10 +7,23 @@ namespace fuse {
 
 namespace {
 constexpr std::size_t kInitialSlots = 1u << 12;
-/// The table grows when more than this fraction of its slots are used (linear probing stays short).
+/// The table is kept at most this full (linear probing stays short): it is sized for max_voxels /
+/// kMaxLoad slots at construction, and doubles only if it ever holds more.
 constexpr double kMaxLoad = 0.5;
-/// Eviction removes this fraction of max_voxels at once, so its cost is amortised over many inserts.
-constexpr double kEvictFraction = 0.1;
+/// The largest table made up front (64 MiB).
+constexpr std::size_t kMaxPresizedSlots = 1u << 22;
+/// Points a new voxel has room for before its first reallocation.
+constexpr std::size_t kFirstCapacity = 8;
+
+/// Slots for max_voxels at kMaxLoad; an index bounded beyond kMaxPresizedSlots (the map server's,
+/// which never evicts) starts small and grows as it fills instead.
+std::size_t presized_slots(std::size_t max_voxels) {
+  const double wanted = static_cast<double>(max_voxels) / kMaxLoad;
+  if (wanted > static_cast<double>(kMaxPresizedSlots)) return kInitialSlots;
+  std::size_t n = kInitialSlots;
+  while (static_cast<double>(n) < wanted) n *= 2;
+  return n;
+}
 
 std::vector<Eigen::Vector3i> neighborhood_offsets(const std::string& name) {
   std::vector<Eigen::Vector3i> out;
@@ -46,8 +59,11 @@ std::uint64_t hash_key(const Eigen::Vector3i& k) {
 
 IVox::IVox(const SpatialIndexConfig& config)
     : config_(config), voxel_size_(static_cast<float>(config.voxel_size)),
-      inv_voxel_size_(static_cast<float>(1.0 / config.voxel_size)), offsets_(neighborhood_offsets(config.neighborhood)),
-      slots_(kInitialSlots) {}
+      inv_voxel_size_(static_cast<float>(1.0 / config.voxel_size)), offsets_(neighborhood_offsets(config.neighborhood)) {
+  slots_.resize(presized_slots(config.max_voxels));
+  // Address space only: records are made (and their pages touched) a scan's few thousand at a time.
+  voxels_.reserve(std::min(config.max_voxels, static_cast<std::size_t>(kMaxLoad * static_cast<double>(slots_.size()))));
+}
 
 IVox::Key IVox::key_of(const Eigen::Vector3f& p) const {
   return Key(static_cast<int>(std::floor(p.x() * inv_voxel_size_)), static_cast<int>(std::floor(p.y() * inv_voxel_size_)),
@@ -57,38 +73,62 @@ IVox::Key IVox::key_of(const Eigen::Vector3f& p) const {
 std::size_t IVox::slot_of(const Key& key) const {
   const std::size_t mask = slots_.size() - 1;
   std::size_t i = hash_key(key) & mask;
-  while (slots_[i].voxel >= 0 && slots_[i].key != key) i = (i + 1) & mask;
+  while (slots_[i].id != 0 && slots_[i].key != key) i = (i + 1) & mask;
   return i;
 }
 
-std::int32_t IVox::find(const Key& key) const { return slots_[slot_of(key)].voxel; }
+std::int32_t IVox::find(const Key& key) const { return slots_[slot_of(key)].id - 1; }
 
 void IVox::rebuild_table(std::size_t capacity) {
   slots_.assign(capacity, Slot{});
   for (std::size_t v = 0; v < voxels_.size(); ++v) {
     if (voxels_[v].points.empty()) continue;
-    slots_[slot_of(voxels_[v].key)] = Slot{voxels_[v].key, static_cast<std::int32_t>(v)};
+    Slot& slot = slots_[slot_of(voxels_[v].key)];
+    slot.key = voxels_[v].key;
+    slot.id = static_cast<std::int32_t>(v) + 1;
   }
 }
 
+void IVox::erase_slot(std::size_t hole) {
+  // Backward-shift deletion (Knuth, TAOCP 6.4, algorithm R): walk the probe run after the hole
+  // and move back every entry whose home slot does not lie cyclically in (hole, j]; such an entry
+  // would otherwise be cut off from its home by the empty slot. No tombstones are left behind.
+  const std::size_t mask = slots_.size() - 1;
+  for (std::size_t j = (hole + 1) & mask; slots_[j].id != 0; j = (j + 1) & mask) {
+    const std::size_t home = hash_key(slots_[j].key) & mask;
+    const bool reachable = hole <= j ? (hole < home && home <= j) : (hole < home || home <= j);
+    if (reachable) continue;
+    slots_[hole] = slots_[j];
+    hole = j;
+  }
+  slots_[hole] = Slot{};
+}
+
+void IVox::link_newest(std::int32_t v) {
+  Voxel& vox = voxels_[v];
+  vox.older = newest_;
+  vox.newer = -1;
+  if (newest_ >= 0) voxels_[newest_].newer = v;
+  newest_ = v;
+  if (oldest_ < 0) oldest_ = v;
+}
+
+void IVox::unlink(std::int32_t v) {
+  Voxel& vox = voxels_[v];
+  (vox.older >= 0 ? voxels_[vox.older].newer : oldest_) = vox.newer;
+  (vox.newer >= 0 ? voxels_[vox.newer].older : newest_) = vox.older;
+  vox.older = vox.newer = -1;
+}
+
 void IVox::evict_least_recent() {
-  // Evict the kEvictFraction least recently touched voxels (nth_element on their touch times).
-  std::vector<std::pair<std::uint64_t, std::int32_t>> touches;
-  touches.reserve(num_voxels_);
-  for (std::size_t v = 0; v < voxels_.size(); ++v) {
-    if (!voxels_[v].points.empty()) touches.emplace_back(voxels_[v].last_touch, static_cast<std::int32_t>(v));
-  }
-  const std::size_t n_evict = std::max<std::size_t>(1, static_cast<std::size_t>(kEvictFraction * config_.max_voxels));
-  const std::size_t n = std::min(n_evict, touches.size());
-  std::nth_element(touches.begin(), touches.begin() + static_cast<std::ptrdiff_t>(n - 1), touches.end());
-  for (std::size_t i = 0; i < n; ++i) {
-    Voxel& vox = voxels_[touches[i].second];
-    num_points_ -= vox.points.size();
-    std::vector<Eigen::Vector3f>().swap(vox.points);
-    free_voxels_.push_back(touches[i].second);
-    --num_voxels_;
-  }
-  rebuild_table(slots_.size());
+  const std::int32_t v = oldest_;
+  Voxel& vox = voxels_[v];
+  unlink(v);
+  erase_slot(slot_of(vox.key));
+  num_points_ -= vox.points.size();
+  vox.points.clear();  // the record keeps its buffer for the voxel made next in its place
+  free_voxels_.push_back(v);
+  --num_voxels_;
 }
 
 void IVox::insert(const std::vector<Eigen::Vector3f>& world_points) {
@@ -96,11 +136,11 @@ void IVox::insert(const std::vector<Eigen::Vector3f>& world_points) {
   for (const Eigen::Vector3f& p : world_points) {
     const Key key = key_of(p);
     std::size_t s = slot_of(key);
-    std::int32_t v = slots_[s].voxel;
+    std::int32_t v = slots_[s].id - 1;
     if (v < 0) {
       if (num_voxels_ >= config_.max_voxels) {
         evict_least_recent();
-        s = slot_of(key);
+        s = slot_of(key);  // the deletion may have shifted the probe run
       }
       if (free_voxels_.empty()) {
         v = static_cast<std::int32_t>(voxels_.size());
@@ -110,18 +150,25 @@ void IVox::insert(const std::vector<Eigen::Vector3f>& world_points) {
         free_voxels_.pop_back();
       }
       voxels_[v].key = key;
-      voxels_[v].points.reserve(8);
-      slots_[s] = Slot{key, v};
+      voxels_[v].last_touch = clock_;
+      voxels_[v].points.reserve(kFirstCapacity);
+      slots_[s].key = key;
+      slots_[s].id = v + 1;
+      link_newest(v);
       ++num_voxels_;
+    } else if (voxels_[v].last_touch != clock_) {
+      voxels_[v].last_touch = clock_;
+      unlink(v);
+      link_newest(v);
     }
     Voxel& vox = voxels_[v];
-    vox.last_touch = clock_;
     if (vox.points.size() < config_.max_points_per_voxel) {
       vox.points.push_back(p);
       ++num_points_;
     }
     // Grow only now: rebuild_table() skips voxel records without points, so a voxel created by
     // this point must hold it first (else the next point of its key would create a duplicate).
+    // Only an index too large to be sized up front (the map server's) gets here.
     if (static_cast<double>(num_voxels_) > kMaxLoad * static_cast<double>(slots_.size())) {
       rebuild_table(slots_.size() * 2);
     }
@@ -169,6 +216,7 @@ void IVox::trim(const Eigen::Vector3f& center, float half_extent) {
               pts.end());
     if (pts.empty()) {
       std::vector<Eigen::Vector3f>().swap(pts);
+      unlink(static_cast<std::int32_t>(v));
       free_voxels_.push_back(static_cast<std::int32_t>(v));
       --num_voxels_;
     }

@@ -1,11 +1,18 @@
 // Hash-voxel index in the style of iVox (Bai et al., Faster-LIO, 2022): points bucketed in cubic
 // voxels keyed by integer coordinates; k-nearest search scans the query's voxel and a fixed
 // neighbourhood of voxels (nearest first, skipping voxels farther than the current k-th
-// neighbour). Voxels remember when they were last touched by an insert; beyond `max_voxels` the
-// least recently touched are evicted, which bounds memory over long runs (LRU).
+// neighbour). Voxels are kept in a least-recently-touched list (touch = an insert into them);
+// beyond `max_voxels` the least recently touched voxel is evicted for each new one, which bounds
+// memory over long runs (LRU).
 //
 // The hash table is open-addressing with linear probing over a power-of-two array of slots that
 // hold the key and the voxel's index: a lookup is one mixed hash, no division, no pointer chase.
+//
+// No insert costs more than its points: the table is sized for `max_voxels` and written once when
+// the index is made (a page touched for the first time costs a fault; a lookup into a table whose
+// pages are still untouched would take thousands of them in the first scans), so it never grows
+// while an estimator inserts, and an eviction unlinks one voxel and closes its slot's probe run in
+// place (backward-shift deletion) instead of rebuilding the table.
 #pragma once
 
 #include <cstdint>
@@ -26,23 +33,30 @@ class IVox final : public SpatialIndex {
   void for_each_point(const std::function<void(const Eigen::Vector3f&)>& fn) const override;
   std::string name() const override { return "ivox"; }
   std::size_t num_voxels() const { return num_voxels_; }
+  /// Slots of the hash table (for tests: it is sized at construction and grows only past
+  /// the size it was made for).
+  std::size_t num_slots() const { return slots_.size(); }
 
  private:
   using Key = Eigen::Vector3i;
   struct Slot {
-    Key key;
-    std::int32_t voxel = -1;  ///< index into voxels_, -1 = empty
+    Key key = Key::Zero();
+    std::int32_t id = 0;  ///< index into voxels_ plus one; 0 = empty
   };
   struct Voxel {
     Key key;
     std::uint64_t last_touch = 0;
+    std::int32_t older = -1, newer = -1;  ///< neighbours in the LRU list
     std::vector<Eigen::Vector3f> points;  ///< empty = free voxel record
   };
 
   Key key_of(const Eigen::Vector3f& p) const;
   std::size_t slot_of(const Key& key) const;  ///< the slot holding key, or the empty slot where it goes
-  std::int32_t find(const Key& key) const;
+  std::int32_t find(const Key& key) const;    ///< voxel index, -1 if absent
   void rebuild_table(std::size_t capacity);
+  void erase_slot(std::size_t slot);
+  void link_newest(std::int32_t v);
+  void unlink(std::int32_t v);
   void evict_least_recent();
 
   SpatialIndexConfig config_;
@@ -51,6 +65,7 @@ class IVox final : public SpatialIndex {
   std::vector<Slot> slots_;
   std::vector<Voxel> voxels_;
   std::vector<std::int32_t> free_voxels_;
+  std::int32_t oldest_ = -1, newest_ = -1;  ///< ends of the LRU list
   std::size_t num_voxels_ = 0, num_points_ = 0;
   std::uint64_t clock_ = 0;
 };
