@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "fuse/eval/metrics.hpp"
+#include "fuse/eval/scan_times.hpp"
 #include "test_helpers.hpp"
 
 namespace fuse::eval {
@@ -22,6 +23,21 @@ Trajectory line(int n, double yaw) {
     out.push_back(pose);
   }
   return out;
+}
+
+TEST(ScanTimes, RanksOfTheTailAreTakenFromTheSortedTimes) {
+  // 1..200 ms shuffled: the value at rank floor(q n) of the sorted times.
+  std::vector<double> ms;
+  for (int i = 0; i < 200; ++i) ms.push_back((i * 7) % 200 + 1);  // 7 is coprime with 200
+  const TimeStatistics s = time_statistics(ms);
+  EXPECT_DOUBLE_EQ(s.mean_ms, 100.5);
+  EXPECT_DOUBLE_EQ(s.median_ms, 101.0);
+  EXPECT_DOUBLE_EQ(s.p95_ms, 191.0);
+  EXPECT_DOUBLE_EQ(s.p99_ms, 199.0);
+  EXPECT_DOUBLE_EQ(s.max_ms, 200.0);
+  const TimeStatistics none = time_statistics({});
+  EXPECT_EQ(none.max_ms, 0.0);
+  EXPECT_EQ(none.median_ms, 0.0);
 }
 
 TEST(Metrics, StatisticsMatchNumpy) {

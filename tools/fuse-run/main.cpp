@@ -107,7 +107,8 @@ int main(int argc, char** argv) {
   const fuse::RunSummary s = fuse::run_offline(config, input, out_dir);
   std::cout << "scans: " << s.scans << "\nscans_updated: " << s.scans_updated << "\nimu_samples: " << s.imu_samples
             << "\nscan_time_mean_ms: " << s.mean_ms << "\nscan_time_p95_ms: " << s.p95_ms
-            << "\nscan_time_max_ms: " << s.max_ms << "\n";
+            << "\nscan_time_max_ms: " << s.max_ms << "\nscan_cpu_median_ms: " << s.cpu_median_ms
+            << "\nscan_cpu_p99_ms: " << s.cpu_p99_ms << "\nscan_cpu_max_ms: " << s.cpu_max_ms << "\n";
   std::cout << "time_offset_s: " << s.time_offset << "\n";
   for (const auto& [reason, n] : s.input_rejected) std::cout << "input_rejected_" << reason << ": " << n << "\n";
   for (const auto& [reason, n] : s.estimator_counts) std::cout << "estimator_" << reason << ": " << n << "\n";

@@ -32,6 +32,8 @@ struct RunSummary {
   bool initialised = false;
   std::vector<double> scan_ms;  ///< total per-scan estimator time
   double mean_ms = 0.0, p95_ms = 0.0, max_ms = 0.0;
+  std::vector<double> scan_cpu_ms;  ///< the processing thread's CPU time per scan
+  double cpu_median_ms = 0.0, cpu_p99_ms = 0.0, cpu_max_ms = 0.0;
   std::vector<StampedPose> trajectory;      ///< IMU pose at scan end times
   std::vector<StampedPose> trajectory_imu;  ///< IMU pose at IMU rate (causal estimate)
   std::map<std::string, std::uint64_t> input_rejected;    ///< from the sensor source

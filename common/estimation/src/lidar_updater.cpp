@@ -7,6 +7,9 @@
 #include <limits>
 #include <optional>
 
+#include <sys/resource.h>
+#include <time.h>
+
 #include "fuse/core/logging.hpp"
 
 namespace fuse {
@@ -15,6 +18,20 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+/// CPU time of the calling thread (ms): what the scan cost whatever else the machine ran.
+double thread_cpu_ms() {
+  timespec ts{};
+  ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
+}
+
+/// Page faults the calling thread has taken (first touches of memory, minor and major).
+std::uint64_t thread_page_faults() {
+  rusage u{};
+  ::getrusage(RUSAGE_THREAD, &u);
+  return static_cast<std::uint64_t>(u.ru_minflt + u.ru_majflt);
 }
 
 UpdateConfig with_recovery_caps(UpdateConfig c, const RecoveryConfig& r) {
@@ -138,6 +155,8 @@ UpdateResult LidarUpdater::update(MeasurementModel& model, StateHistory& history
 
 ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
   const auto t0 = Clock::now();
+  const double cpu0 = thread_cpu_ms();
+  const std::uint64_t faults0 = thread_page_faults();
   ScanReport report;
   report.t = scan.t_end;
   report.sequence = scan.sequence;
@@ -293,6 +312,8 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
   report.map_points = map_->size();
   report.ms_map = ms_since(t_stage);
   report.ms_total = ms_since(t0);
+  report.ms_cpu = thread_cpu_ms() - cpu0;
+  report.page_faults = thread_page_faults() - faults0;
   check_divergence(report, history);
   return report;
 }

@@ -13,6 +13,7 @@ namespace fuse::eval {
 namespace {
 
 constexpr double kP95 = 0.95;
+constexpr double kP99 = 0.99;
 
 std::vector<std::string> split_csv(const std::string& line) {
   std::vector<std::string> fields;
@@ -72,7 +73,12 @@ TimeStatistics time_statistics(const std::vector<double>& ms) {
   std::vector<double> sorted = ms;
   std::sort(sorted.begin(), sorted.end());
   s.mean_ms = std::accumulate(sorted.begin(), sorted.end(), 0.0) / static_cast<double>(sorted.size());
-  s.p95_ms = sorted[std::min(sorted.size() - 1, static_cast<std::size_t>(kP95 * static_cast<double>(sorted.size())))];
+  const auto at = [&](double q) {
+    return sorted[std::min(sorted.size() - 1, static_cast<std::size_t>(q * static_cast<double>(sorted.size())))];
+  };
+  s.median_ms = at(0.5);
+  s.p95_ms = at(kP95);
+  s.p99_ms = at(kP99);
   s.max_ms = sorted.back();
   return s;
 }

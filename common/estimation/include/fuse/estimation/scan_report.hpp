@@ -42,6 +42,12 @@ struct ScanReport {
   /// space inherits the pose's error (see LidarUpdater::process). Zero when nothing was mapped.
   Eigen::Matrix<double, 6, 6> map_drift = Eigen::Matrix<double, 6, 6>::Zero();
   double ms_deskew = 0.0, ms_association = 0.0, ms_update = 0.0, ms_map = 0.0, ms_total = 0.0;
+  /// CPU time of the processing thread over the whole step (ms): the wall time above less what
+  /// the machine spent elsewhere; the per-scan tail is judged on it.
+  double ms_cpu = 0.0;
+  /// Page faults the processing thread took over the step: memory touched for the first time
+  /// (a growing buffer, a fresh allocation), the usual cause of a scan far slower than its peers.
+  std::uint64_t page_faults = 0;
 };
 
 }  // namespace fuse

@@ -18,10 +18,13 @@ struct ScanTimes {
 /// width, a value that is not a finite number, a negative time or scan times that decrease.
 ScanTimes read_scan_times(const std::string& path);
 
-/// Mean, 95th percentile (the value at rank floor(0.95 n) of the sorted times) and maximum.
+/// Mean, median, 95th and 99th percentile (the value at rank floor(q n) of the sorted times) and
+/// maximum: the paper's mean / P95 / max, and the tail against the median (issue 19's stall goal).
 struct TimeStatistics {
   double mean_ms = 0.0;
+  double median_ms = 0.0;
   double p95_ms = 0.0;
+  double p99_ms = 0.0;
   double max_ms = 0.0;
 };
 /// All zero for no times.

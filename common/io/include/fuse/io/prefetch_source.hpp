@@ -5,12 +5,16 @@
 // publish an IMU sample every 5 ms. Reading ahead into a bounded queue takes that cost off the
 // scheduling thread. Events come out in the same order and unchanged; an InputError raised by
 // the inner source is raised again by next() in its place in the stream (after the events read
-// before it). stats() is a snapshot, safe to call from any thread.
+// before it). stats() counts what has been delivered, not what has been read ahead: a refusal
+// counts once the consumer has reached the point of the stream where it happened (a consumer that
+// judges time without data by it sees it in its place). It is a snapshot, safe to call from any
+// thread.
 #pragma once
 
 #include <condition_variable>
 #include <deque>
 #include <exception>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <thread>
@@ -31,22 +35,32 @@ class PrefetchSource : public SensorSource {
   std::optional<Eigen::Isometry3d> T_imu_lidar() const override { return T_imu_lidar_; }
   const SourceStats& stats() const override;
   std::string describe() const override { return describe_; }
+  std::optional<std::uint64_t> expected_events() const override { return expected_events_; }
 
  private:
   void read_loop();
+  /// An event with the inner source's counters just after it was read.
+  struct Read {
+    SensorEvent ev;
+    SourceStats counts;  ///< without `rejected`: that map is shared while it does not change
+    std::shared_ptr<const std::map<std::string, std::uint64_t>> rejected;
+  };
 
   std::unique_ptr<SensorSource> inner_;
   const std::size_t capacity_;
   const std::optional<Eigen::Isometry3d> T_imu_lidar_;
   const std::string describe_;
+  const std::optional<std::uint64_t> expected_events_;
 
   mutable std::mutex mutex_;
   std::condition_variable changed_;
-  std::deque<SensorEvent> queue_;
+  std::deque<Read> queue_;
   bool done_ = false;      ///< the reader has reached the end (or an error)
   bool closing_ = false;   ///< the destructor asks the reader to stop
   std::exception_ptr error_;
-  SourceStats stats_;                   ///< copied from the inner source after each read
+  SourceStats final_stats_;             ///< the inner source's, once it has ended
+  std::shared_ptr<const std::map<std::string, std::uint64_t>> rejected_;  ///< reader thread only
+  SourceStats delivered_;               ///< as of the last event next() gave out
   mutable SourceStats stats_snapshot_;  ///< what stats() returns
   std::thread reader_;
 };
