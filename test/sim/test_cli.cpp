@@ -92,6 +92,28 @@ TEST(SimCli, ParsesValidArguments) {
   EXPECT_EQ(d.options.format, OutputFormat::kMcap);
 }
 
+TEST(SimCli, ParsesTheVehicleOptions) {
+  const Parsed u =
+      parse({"--scenario", "urban", "--seed", "3", "--lidar", "spinning64", "--traffic", "off", "--out", "x"});
+  ASSERT_FALSE(u.code) << u.err;
+  EXPECT_EQ(u.options.scenario, "urban");
+  EXPECT_EQ(u.options.lidar, "spinning64");
+  EXPECT_FALSE(u.options.traffic);
+  EXPECT_TRUE(parse({"--scenario", "urban", "--seed", "3", "--out", "x"}).options.traffic);  // on by default
+  EXPECT_TRUE(parse({"--scenario", "urban", "--seed", "3", "--traffic", "on", "--out", "x"}).options.traffic);
+  // The classifier needs no --out; its tolerance defaults to 0.3 m.
+  const Parsed c = parse({"--scenario", "urban", "--seed", "3", "--classify-map", "map.pcd"});
+  ASSERT_FALSE(c.code) << c.err;
+  EXPECT_EQ(c.options.classify_map, "map.pcd");
+  EXPECT_DOUBLE_EQ(c.options.classify_tolerance_m, 0.3);
+  EXPECT_DOUBLE_EQ(
+      parse({"--scenario", "urban", "--seed", "3", "--classify-map", "m.ply", "--classify-tolerance", "0.5"})
+          .options.classify_tolerance_m,
+      0.5);
+  EXPECT_EQ(parse({"--scenario", "campus", "--seed", "3", "--lidar", "spinning64", "--out", "x"}).options.lidar,
+            "spinning64");
+}
+
 TEST(SimCli, HelpAndVersionExitZeroOnStdout) {
   const Parsed help = parse({"--help"});
   EXPECT_EQ(help.code, 0);
@@ -128,6 +150,17 @@ TEST(SimCli, RejectsBadArgumentsNamingTheFlag) {
       {{"--scenario", "room", "--seed", "1", "--laps", "2", "--out", "x"}, "--laps: only the corridor"},  // no loop
       {{"--scenario", "room", "--seed", "1", "--imu-time-offset", "2", "--out", "x"}, "--imu-time-offset: expected a"},
       {{"--scenario", "room", "--seed", "1", "--imu-time-offset", "5ms", "--out", "x"}, "--imu-time-offset: expected"},
+      {{"--scenario", "urban", "--seed", "1", "--traffic", "maybe", "--out", "x"}, "--traffic: expected on or off"},
+      {{"--scenario", "corridor", "--seed", "1", "--traffic", "off", "--out", "x"},
+       "--traffic: the scenario 'corridor' has no moving objects"},
+      {{"--scenario", "urban", "--seed", "1", "--classify-map", "m.ply", "--classify-tolerance", "0"},
+       "--classify-tolerance: expected a distance"},
+      {{"--scenario", "urban", "--seed", "1", "--classify-map", "m.ply", "--classify-tolerance", "x"},
+       "--classify-tolerance: expected a distance"},
+      {{"--scenario", "urban", "--seed", "1", "--classify-tolerance", "0.5", "--out", "x"},
+       "--classify-tolerance: only with --classify-map"},
+      {{"--scenario", "urban", "--seed", "1", "--classify-map", ""}, "--classify-map: empty file name"},
+      {{"--scenario", "urban", "--seed", "1"}, "missing --out"},
   };
   for (const auto& [args, message] : bad) {
     const Parsed p = parse(args);

@@ -88,7 +88,8 @@ TEST_P(SimImuConsistency, IdealImuIntegratesToGroundTruth) {
               GetParam().c_str(), max_pos, max_rot_deg);
 }
 
-INSTANTIATE_TEST_SUITE_P(Scenarios, SimImuConsistency, ::testing::Values("corridor", "stairs", "room", "campus"));
+INSTANTIATE_TEST_SUITE_P(Scenarios, SimImuConsistency,
+                         ::testing::Values("corridor", "stairs", "room", "campus", "urban"));
 
 TEST(SimImu, StaticStartMeasuresBiasAndGravity) {
   const Scenario s = make_scenario("corridor", 2, 9);

@@ -68,6 +68,43 @@ TEST(SimLidarPattern, Spinning32Statistics) {
   EXPECT_THROW(LidarConfig::from_name("velodyne"), std::invalid_argument);
 }
 
+TEST(SimLidarPattern, Spinning64Statistics) {
+  const LidarConfig c = LidarConfig::from_name("spinning64");
+  EXPECT_EQ(c.type, LidarType::kSpinning64);
+  EXPECT_EQ(c.shots_per_frame(), 64 * 1024);
+  std::vector<Shot> shots;
+  generate_shots(c, 5, shots);
+  ASSERT_EQ(shots.size(), 64u * 1024u);
+  std::set<int> rings;
+  std::set<float> times;
+  double el_min = 90, el_max = -90;
+  for (const Shot& s : shots) {
+    rings.insert(s.ring);
+    times.insert(s.t_rel);
+    el_min = std::min(el_min, elevation_deg(s.dir));
+    el_max = std::max(el_max, elevation_deg(s.dir));
+    ASSERT_LT(s.t_rel, 0.1f);
+  }
+  EXPECT_EQ(rings.size(), 64u);
+  EXPECT_EQ(times.size(), 1024u);  // one firing time per column
+  EXPECT_NEAR(el_min, -22.5, 1e-9);
+  EXPECT_NEAR(el_max, 22.5, 1e-9);
+  EXPECT_NEAR(elevation_deg(shots[1].dir) - elevation_deg(shots[0].dir), 45.0 / 63.0, 1e-9);
+  EXPECT_EQ(shots[0].t_rel, shots[63].t_rel);
+  EXPECT_GT(shots[64].t_rel, shots[63].t_rel);
+  // Every scenario casts it: the urban scan has all 64 rings and long returns.
+  const Scenario s = make_scenario("urban", 1, 1);
+  LidarSimulator sim(c, s.world, *s.trajectory, default_T_imu_lidar(), 1, &*s.traffic);
+  std::vector<std::uint8_t> labels;
+  const fuse::LidarScan scan = sim.scan(300, s.trajectory->t_begin(), &labels);
+  EXPECT_GT(scan.points.size(), 30000u);
+  EXPECT_LE(scan.points.size(), 65536u);
+  std::set<int> seen;
+  for (const fuse::LidarPoint& p : scan.points) seen.insert(p.ring);
+  EXPECT_EQ(seen.size(), 64u);
+  EXPECT_EQ(labels.size(), scan.points.size());
+}
+
 TEST(SimLidar, CorridorScanStatistics) {
   const Scenario s = make_scenario("corridor", 1, 1);
   const Trajectory& tr = *s.trajectory;

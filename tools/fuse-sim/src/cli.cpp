@@ -10,6 +10,7 @@
 #include <string>
 
 #include "fuse/cli/cli.hpp"
+#include "fuse/sim/lidar_pattern.hpp"
 #include "fuse/sim/scenario.hpp"
 
 namespace fuse::sim {
@@ -20,6 +21,7 @@ constexpr double kMaxDurationS = 1e5;    // sanity bound for --duration
 constexpr std::uint64_t kMaxLaps = 100;  // sanity bound for --laps
 constexpr double kMinDurationS = 0.1;    // one LiDAR frame
 constexpr double kMaxImuTimeOffsetS = 1.0;  // sanity bound for --imu-time-offset (real offsets: ms)
+constexpr double kMaxClassifyToleranceM = 10.0;  // sanity bound for --classify-tolerance
 
 /// A value that does not check; parse_arguments prints it as a usage error (exit code 2).
 class BadValue : public std::runtime_error {
@@ -30,6 +32,7 @@ class BadValue : public std::runtime_error {
 /// The options as typed: CLI11 stores the text, the checks below turn it into SimOptions.
 struct Given {
   std::string scenario, seed, world_seed, duration, laps, start_at, lidar, format, out, imu_time_offset;
+  std::string traffic, classify_map, classify_tolerance;
 };
 
 bool given(const CLI::App& app, const char* flag) { return app.count(flag) > 0; }
@@ -57,7 +60,7 @@ double parse_duration(const std::string& text) {
 }
 
 void add_options(CLI::App& app, Given& g) {
-  app.add_option("--scenario", g.scenario, "corridor | stairs | room | campus (required)")->type_name("NAME");
+  app.add_option("--scenario", g.scenario, "corridor | stairs | room | campus | urban (required)")->type_name("NAME");
   app.add_option("--seed", g.seed, "noise and motion variations, a non-negative integer (required)")
       ->type_name("N");
   app.add_option("--world-seed", g.world_seed, "world layout (default: the --seed value)")->type_name("M");
@@ -69,7 +72,14 @@ void add_options(CLI::App& app, Given& g) {
                  "start the walk D metres along the scenario's path, at rest (default 0); the world, its frame and "
                  "the ground truth's frame are those of --world-seed, so a map made by one walk serves another")
       ->type_name("D");
-  app.add_option("--lidar", g.lidar, "mid360 (default) or spinning32")->type_name("MODEL");
+  app.add_option("--lidar", g.lidar,
+                 "mid360 (default), spinning32 (32 beams, -16..15 deg, 1800 columns) or spinning64 (64 beams, "
+                 "-22.5..22.5 deg, 1024 columns, OS1-64-like)")
+      ->type_name("MODEL");
+  app.add_option("--traffic", g.traffic,
+                 "urban: moving cars and pedestrians (on, the default) or the same run without them (off); an error "
+                 "for a scenario without traffic")
+      ->type_name("on|off");
   app.add_option("--imu-time-offset", g.imu_time_offset,
                  "stamp every IMU sample S seconds after its true time (an IMU clock ahead of the LiDAR's; "
                  "negative: behind), at most 1 s either way (default 0); scans and ground truth keep the true time")
@@ -78,8 +88,17 @@ void add_options(CLI::App& app, Given& g) {
       ->type_name("mcap|seqdir");
   app.add_option("--out", g.out,
                  "output directory, created if missing (required); also gets groundtruth.tum (true T_world_imu at "
-                 "200 Hz) and scenario.yaml (all parameters)")
+                 "200 Hz), scenario.yaml (all parameters), point_labels.bin (0 static / 1 moving per point) and "
+                 "moving_objects.csv")
       ->type_name("DIR");
+  app.add_option("--classify-map", g.classify_map,
+                 "instead of simulating: classify the points of MAP (binary PLY or PCD of float x y z, as "
+                 "fuse-map-export writes) against this scenario's world as static, ghost (on a moving object's path) "
+                 "or other, printed as key: value lines; --out is not needed (exit 4: MAP unreadable)")
+      ->type_name("MAP");
+  app.add_option("--classify-tolerance", g.classify_tolerance,
+                 "with --classify-map: distance in metres within which a point is on a surface (default 0.3)")
+      ->type_name("M");
 }
 
 /// --scenario, --lidar and --format: each a name from its list.
@@ -87,18 +106,25 @@ void check_names(const CLI::App& app, const Given& g, SimOptions& o) {
   if (given(app, "--scenario")) {
     const auto& names = scenario_names();
     if (std::find(names.begin(), names.end(), g.scenario) == names.end())
-      throw BadValue("--scenario: unknown scenario '" + g.scenario + "' (expected corridor, stairs, room or campus)");
+      throw BadValue("--scenario: unknown scenario '" + g.scenario +
+                     "' (expected corridor, stairs, room, campus or urban)");
     o.scenario = g.scenario;
   }
   if (given(app, "--lidar")) {
-    if (g.lidar != "mid360" && g.lidar != "spinning32")
-      throw BadValue("--lidar: unknown model '" + g.lidar + "' (expected mid360 or spinning32)");
+    const auto& models = LidarConfig::names();
+    if (std::find(models.begin(), models.end(), g.lidar) == models.end())
+      throw BadValue("--lidar: unknown model '" + g.lidar + "' (expected mid360, spinning32 or spinning64)");
     o.lidar = g.lidar;
   }
   if (given(app, "--format")) {
     if (g.format != "mcap" && g.format != "seqdir")
       throw BadValue("--format: unknown format '" + g.format + "' (expected mcap or seqdir)");
     o.format = g.format == "seqdir" ? OutputFormat::kSeqdir : OutputFormat::kMcap;
+  }
+  if (given(app, "--traffic")) {
+    if (g.traffic != "on" && g.traffic != "off")
+      throw BadValue("--traffic: expected on or off, got '" + g.traffic + "'");
+    o.traffic = g.traffic == "on";
   }
 }
 
@@ -129,17 +155,34 @@ void check_numbers(const CLI::App& app, const Given& g, SimOptions& o) {
       throw BadValue("--imu-time-offset: expected a number of seconds between -1 and 1, got '" + g.imu_time_offset + "'");
     o.imu_time_offset_s = v;
   }
+  if (given(app, "--classify-tolerance")) {
+    errno = 0;
+    char* end = nullptr;
+    const double v = std::strtod(g.classify_tolerance.c_str(), &end);
+    if (g.classify_tolerance.empty() || end == g.classify_tolerance.c_str() || *end != '\0' || errno == ERANGE ||
+        !std::isfinite(v) || !(v > 0.0) || v > kMaxClassifyToleranceM)
+      throw BadValue("--classify-tolerance: expected a distance above 0 and at most 10 m, got '" +
+                     g.classify_tolerance + "'");
+    o.classify_tolerance_m = v;
+  }
 }
 
-/// The required options (checked here rather than by CLI11 to keep the messages) and --laps's
-/// restriction to the corridor.
+/// The required options (checked here rather than by CLI11 to keep the messages), --laps's
+/// restriction to the corridor, --traffic's to a scenario with traffic and the classifier's mode
+/// (no --out needed; --classify-tolerance only with it).
 void check_complete(const CLI::App& app, const Given& g, SimOptions& o) {
   if (given(app, "--out") && g.out.empty()) throw BadValue("--out: empty directory name");
   o.out_dir = g.out;
+  if (given(app, "--classify-map") && g.classify_map.empty()) throw BadValue("--classify-map: empty file name");
+  o.classify_map = g.classify_map;
   if (!given(app, "--scenario")) throw BadValue("missing --scenario");
   if (!given(app, "--seed")) throw BadValue("missing --seed");
-  if (!given(app, "--out")) throw BadValue("missing --out");
+  if (!given(app, "--out") && o.classify_map.empty()) throw BadValue("missing --out");
   if (o.laps > 1 && o.scenario != "corridor") throw BadValue("--laps: only the corridor's path is a loop");
+  if (given(app, "--traffic") && !scenario_has_traffic(o.scenario))
+    throw BadValue("--traffic: the scenario '" + o.scenario + "' has no moving objects (only urban has)");
+  if (given(app, "--classify-tolerance") && o.classify_map.empty())
+    throw BadValue("--classify-tolerance: only with --classify-map");
 }
 
 }  // namespace
@@ -148,7 +191,7 @@ std::optional<int> parse_arguments(int argc, char** argv, SimOptions& options) {
   const auto app = cli::make_app(
       "fuse-sim",
       "Simulates a LiDAR + IMU sequence with exact ground truth. Identical arguments give byte-identical files.",
-      "Exit codes: 0 success, 1 simulation failure, 2 bad command line.");
+      "Exit codes: 0 success, 1 simulation failure, 2 bad command line, 4 --classify-map file unreadable.");
   Given g;
   add_options(*app, g);
   if (const std::optional<int> code = cli::parse(*app, argc, argv)) return code;

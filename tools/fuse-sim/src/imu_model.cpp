@@ -22,6 +22,7 @@ ImuSimulator::ImuSimulator(const ImuNoiseConfig& config, std::uint64_t seed)
   accel_bias_ = config.bias_enabled ? gaussian(config.accel_initial_bias_sigma) : Eigen::Vector3d::Zero();
   initial_gyro_bias_ = gyro_bias_;
   initial_accel_bias_ = accel_bias_;
+  if (config.vibration.enabled) vibration_.emplace(config.vibration, config.rate_hz, seed);
 }
 
 Eigen::Vector3d ImuSimulator::gaussian(double sigma) {
@@ -34,6 +35,12 @@ fuse::ImuSample ImuSimulator::measure(const TrajectoryState& state) {
   m.sequence = sequence_++;
   m.gyro += gyro_bias_;
   m.accel += accel_bias_;
+  if (vibration_) {
+    Eigen::Vector3d accel, gyro;
+    vibration_->next(state.v.norm(), accel, gyro);
+    m.accel += accel;
+    m.gyro += gyro;
+  }
   if (config_.noise_enabled) {
     const double sqrt_rate = std::sqrt(config_.rate_hz);
     m.gyro += gaussian(config_.gyro_noise_density * sqrt_rate);

@@ -1,5 +1,6 @@
 #include "fuse/sim/lidar_model.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace fuse::sim {
@@ -10,10 +11,15 @@ constexpr double kIntensityScale = 255.0;  // 8-bit intensity scale
 }  // namespace
 
 LidarSimulator::LidarSimulator(const LidarConfig& config, const World& world, const Trajectory& trajectory,
-                               const Eigen::Isometry3d& T_imu_lidar, std::uint64_t seed)
-    : config_(config), world_(world), trajectory_(trajectory), T_imu_lidar_(T_imu_lidar), rng_(seed, Stream::kLidar) {}
+                               const Eigen::Isometry3d& T_imu_lidar, std::uint64_t seed, const Traffic* traffic)
+    : config_(config),
+      world_(world),
+      trajectory_(trajectory),
+      T_imu_lidar_(T_imu_lidar),
+      rng_(seed, Stream::kLidar),
+      traffic_(traffic) {}
 
-fuse::LidarScan LidarSimulator::scan(std::uint64_t frame_index, double t0) {
+fuse::LidarScan LidarSimulator::scan(std::uint64_t frame_index, double t0, std::vector<std::uint8_t>* labels) {
   fuse::LidarScan out;
   const double t_start = t0 + static_cast<double>(frame_index) * config_.frame_period_s;
   out.t_start = t_start;
@@ -21,11 +27,29 @@ fuse::LidarScan LidarSimulator::scan(std::uint64_t frame_index, double t0) {
   out.sequence = frame_index;
   generate_shots(config_, frame_index, shots_);
   out.points.reserve(shots_.size());
+  if (labels) {
+    labels->clear();
+    labels->reserve(shots_.size());
+  }
   const Eigen::Matrix3d R_il = T_imu_lidar_.linear();
   const Eigen::Vector3d t_il = T_imu_lidar_.translation();
+  candidates_.clear();
+  if (traffic_) {
+    // The movers that can be within range during this frame: around the middle of the sensor's
+    // path over the frame, the range plus half of that path.
+    const Eigen::Vector3d a = trajectory_.state(out.t_start).p, b = trajectory_.state(out.t_end).p;
+    const double reach = config_.max_range_m + 0.5 * (b - a).norm() + t_il.norm();
+    traffic_->candidates(out.t_start, out.t_end, 0.5 * (a + b), reach, candidates_);
+  }
+  TrajectoryState s;
+  float state_t_rel = -1.f;  // the state is shared by the shots fired together (a spinning column)
   for (const Shot& shot : shots_) {
     // The ray is cast at exactly the recorded time t_start + t_rel (t_rel as stored, float).
-    const TrajectoryState s = trajectory_.state(t_start + static_cast<double>(shot.t_rel));
+    const double t_shot = t_start + static_cast<double>(shot.t_rel);
+    if (shot.t_rel != state_t_rel) {
+      s = trajectory_.state(t_shot);
+      state_t_rel = shot.t_rel;
+    }
     const Eigen::Vector3d origin = s.p + s.R * t_il;
     Eigen::Vector3d dir_l = shot.dir;
     if (config_.angular_noise_sigma_rad > 0.0) {
@@ -35,7 +59,15 @@ fuse::LidarScan LidarSimulator::scan(std::uint64_t frame_index, double t0) {
     }
     const double range_noise = rng_.normal(config_.range_noise_sigma_m);  // drawn for every shot
     const Eigen::Vector3d dir_w = s.R * (R_il * dir_l);
-    const Hit hit = world_.cast(origin, dir_w, config_.max_range_m);
+    Hit hit = world_.cast(origin, dir_w, config_.max_range_m);
+    bool moving = false;
+    if (!candidates_.empty()) {
+      const Hit mover = traffic_->cast(candidates_, origin, dir_w, std::min(config_.max_range_m, hit.range), t_shot);
+      if (mover.range < hit.range) {
+        hit = mover;
+        moving = true;
+      }
+    }
     if (!hit.valid() || hit.range < config_.blind_range_m) continue;
     const double measured = hit.range + range_noise;
     if (measured < config_.blind_range_m || measured > config_.max_range_m) continue;
@@ -50,6 +82,7 @@ fuse::LidarScan LidarSimulator::scan(std::uint64_t frame_index, double t0) {
     pt.t_rel = shot.t_rel;
     pt.ring = shot.ring;
     out.points.push_back(pt);
+    if (labels) labels->push_back(moving ? 1 : 0);
   }
   return out;
 }

@@ -25,14 +25,35 @@ LidarConfig LidarConfig::spinning32() {
   return c;
 }
 
+LidarConfig LidarConfig::spinning64() {
+  // An Ouster OS1-64-like unit: 45 deg vertical field of view centred on the horizon, 1024 columns
+  // at 10 Hz, 120 m range.
+  LidarConfig c;
+  c.type = LidarType::kSpinning64;
+  c.name = "spinning64";
+  c.blind_range_m = 0.3;
+  c.max_range_m = 120.0;
+  c.elevation_min_deg = -22.5;
+  c.elevation_max_deg = 22.5;
+  c.beams = 64;
+  c.columns = 1024;
+  return c;
+}
+
+const std::vector<std::string>& LidarConfig::names() {
+  static const std::vector<std::string> n = {"mid360", "spinning32", "spinning64"};
+  return n;
+}
+
 LidarConfig LidarConfig::from_name(const std::string& name) {
   if (name == "mid360") return mid360();
   if (name == "spinning32") return spinning32();
-  throw std::invalid_argument("unknown LiDAR model '" + name + "' (expected mid360 or spinning32)");
+  if (name == "spinning64") return spinning64();
+  throw std::invalid_argument("unknown LiDAR model '" + name + "' (expected mid360, spinning32 or spinning64)");
 }
 
 int LidarConfig::shots_per_frame() const {
-  if (type == LidarType::kSpinning32) return beams * columns;
+  if (spinning()) return beams * columns;
   return static_cast<int>(std::lround(point_rate_hz * frame_period_s));
 }
 
@@ -85,7 +106,7 @@ void spinning_shots(const LidarConfig& c, std::vector<Shot>& shots) {
 }  // namespace
 
 void generate_shots(const LidarConfig& c, std::uint64_t frame_index, std::vector<Shot>& shots) {
-  if (c.type == LidarType::kSpinning32)
+  if (c.spinning())
     spinning_shots(c, shots);
   else
     mid360_shots(c, frame_index, shots);

@@ -124,7 +124,8 @@ double Path::arc_length() const {
   return total;
 }
 
-Path make_rounded_polyline(const std::vector<Waypoint>& w) {
+Path make_rounded_polyline(const std::vector<Waypoint>& w, std::vector<CornerSpan>* corners) {
+  if (corners) corners->clear();
   if (w.size() < 2) throw std::invalid_argument("rounded polyline: need at least 2 waypoints");
   std::vector<PathKnot> knots;
   std::vector<double> lengths;
@@ -170,6 +171,11 @@ Path make_rounded_polyline(const std::vector<Waypoint>& w) {
     mid.d2 = kappa * n_mid;
     mid.d3 = -kappa * kappa * t_mid;
     const double half_arc = 0.5 * R * turn;
+    if (corners) {
+      double u_entry = 0.0;
+      for (double l : lengths) u_entry += l;
+      corners->push_back({u_entry, u_entry + 2.0 * half_arc, i});
+    }
     lengths.push_back(half_arc);
     knots.push_back(mid);
     lengths.push_back(half_arc);

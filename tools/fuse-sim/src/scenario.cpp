@@ -18,12 +18,14 @@ Eigen::Isometry3d default_T_imu_lidar() {
 }
 
 const std::vector<std::string>& scenario_names() {
-  static const std::vector<std::string> names = {"corridor", "stairs", "room", "campus"};
+  static const std::vector<std::string> names = {"corridor", "stairs", "room", "campus", "urban"};
   return names;
 }
 
+bool scenario_has_traffic(const std::string& name) { return name == "urban"; }
+
 Scenario make_scenario(const std::string& name, std::uint64_t world_seed, std::uint64_t seed, double t0, int laps,
-                       double start_at) {
+                       double start_at, bool traffic) {
   Scenario s;
   s.name = name;
   Rng world_rng(world_seed, Stream::kWorld);
@@ -40,8 +42,10 @@ Scenario make_scenario(const std::string& name, std::uint64_t world_seed, std::u
     detail::build_room(s, world_rng, motion_rng, t0);
   else if (name == "campus")
     detail::build_campus(s, world_rng, motion_rng, t0);
+  else if (name == "urban")
+    detail::build_urban(s, world_rng, motion_rng, t0);
   else
-    throw std::invalid_argument("unknown scenario '" + name + "' (expected corridor, stairs, room or campus)");
+    throw std::invalid_argument("unknown scenario '" + name + "' (expected corridor, stairs, room, campus or urban)");
   if (start_at != 0.0) {
     // The same world and path; the walk starts start_at along it, at rest, with this seed's motion.
     const Trajectory& full = *s.trajectory;
@@ -49,12 +53,17 @@ Scenario make_scenario(const std::string& name, std::uint64_t world_seed, std::u
       throw std::invalid_argument("start_at: must lie on the path (0 to " + std::to_string(full.path().u_end()) + " m)");
     }
     const Path rest = full.path().from(start_at);
-    const TimeLawConfig law = full.time_law().config();
+    const TimeLawConfig law = full.time_law().config().from(start_at);
     const MotionConfig motion = full.motion();
     s.trajectory.emplace(rest, law, motion, t0);
     s.parameters.emplace_back("start_at_m", start_at);
   }
   s.world.build();
+  if (traffic && s.streets) {
+    // Its own stream of the world seed: the static world is the same with or without traffic.
+    Rng traffic_rng(world_seed, Stream::kTraffic);
+    s.traffic = populate_streets(*s.streets, TrafficConfig{}, *s.trajectory, traffic_rng, s.traffic_stats);
+  }
   return s;
 }
 

@@ -22,6 +22,9 @@ enum SurfaceId : std::uint16_t {
   kStep = 9,
   kPole = 10,
   kCar = 11,
+  kTree = 12,
+  kMovingCar = 13,
+  kPedestrian = 14,
 };
 
 /// A material with reflectivity `base` +- `jitter` drawn from the world stream.
@@ -34,5 +37,6 @@ void build_corridor(Scenario& s, Rng& world_rng, Rng& motion_rng, double t0, int
 void build_stairs(Scenario& s, Rng& world_rng, Rng& motion_rng, double t0);
 void build_room(Scenario& s, Rng& world_rng, Rng& motion_rng, double t0);
 void build_campus(Scenario& s, Rng& world_rng, Rng& motion_rng, double t0);
+void build_urban(Scenario& s, Rng& world_rng, Rng& motion_rng, double t0);
 
 }  // namespace fuse::sim::detail

@@ -17,6 +17,7 @@
 #include "fuse/io/seqdir.hpp"
 #include "fuse/sim/imu_model.hpp"
 #include "fuse/sim/lidar_model.hpp"
+#include "fuse/sim/point_labels.hpp"
 #include "fuse/sim/scenario.hpp"
 
 namespace fuse::sim {
@@ -148,7 +149,69 @@ void emit_oscillations(YAML::Emitter& y, const char* key, const std::vector<Osci
 struct RunFacts {
   std::size_t scans, imu_samples, points;
   double duration_s, full_duration_s, path_length_m, travelled_m;
+  std::size_t moving_points, scans_with_moving_points;
+  double mean_scan_moving_fraction;  ///< per-scan share of moving points, averaged over the scans
 };
+
+void emit_speed_law(YAML::Emitter& y, const TimeLawConfig& law) {
+  if (law.limits.empty()) return;
+  y << YAML::Key << "max_accel_mps2" << YAML::Value << law.max_accel;
+  y << YAML::Key << "speed_limits" << YAML::Value << YAML::BeginSeq;
+  for (const SpeedLimit& l : law.limits)
+    y << YAML::Flow << YAML::BeginMap << YAML::Key << "u_begin_m" << YAML::Value << l.u_begin << YAML::Key
+      << "u_end_m" << YAML::Value << l.u_end << YAML::Key << "rate_mps" << YAML::Value << l.rate << YAML::EndMap;
+  y << YAML::EndSeq;
+}
+
+void emit_suspension(YAML::Emitter& y, const SuspensionConfig& c) {
+  if (!c.enabled) return;
+  y << YAML::Key << "suspension" << YAML::Value << YAML::BeginMap << YAML::Key << "pitch_rad_per_mps2"
+    << YAML::Value << c.pitch_per_accel << YAML::Key << "roll_rad_per_mps2" << YAML::Value << c.roll_per_accel
+    << YAML::Key << "natural_hz" << YAML::Value << c.natural_hz << YAML::Key << "damping_ratio" << YAML::Value
+    << c.damping_ratio << YAML::EndMap;
+}
+
+void emit_vibration(YAML::Emitter& y, const VibrationConfig& v) {
+  if (!v.enabled) return;
+  y << YAML::Key << "vibration" << YAML::Value << YAML::BeginMap;
+  y << YAML::Key << "reference_speed_mps" << YAML::Value << v.reference_speed_mps << YAML::Key << "engine_rise"
+    << YAML::Value << v.engine_rise << YAML::Key << "idle_share" << YAML::Value << v.idle_share;
+  y << YAML::Key << "engine" << YAML::Value << YAML::BeginSeq;
+  for (const EngineComponent& e : v.engine) {
+    y << YAML::BeginMap << YAML::Key << "idle_hz" << YAML::Value << e.idle_hz << YAML::Key << "accel_amplitude"
+      << YAML::Value;
+    emit_vector(y, e.accel_amplitude);
+    y << YAML::Key << "gyro_amplitude" << YAML::Value;
+    emit_vector(y, e.gyro_amplitude);
+    y << YAML::Key << "phase_rad" << YAML::Value << e.phase << YAML::EndMap;
+  }
+  y << YAML::EndSeq;
+  y << YAML::Key << "road_center_hz" << YAML::Value << v.road_center_hz << YAML::Key << "road_q" << YAML::Value
+    << v.road_q << YAML::Key << "road_accel_rms" << YAML::Value;
+  emit_vector(y, v.road_accel_rms);
+  y << YAML::Key << "road_gyro_rms" << YAML::Value;
+  emit_vector(y, v.road_gyro_rms);
+  y << YAML::EndMap;
+}
+
+void emit_traffic(YAML::Emitter& y, const SimOptions& o, const Scenario& sc) {
+  if (!scenario_has_traffic(o.scenario)) return;
+  const TrafficStats& t = sc.traffic_stats;
+  y << YAML::Key << "traffic" << YAML::Value << YAML::BeginMap << YAML::Key << "enabled" << YAML::Value << o.traffic
+    << YAML::Key << "cars" << YAML::Value << t.cars << YAML::Key << "pedestrians" << YAML::Value << t.pedestrians
+    << YAML::Key << "redraws" << YAML::Value << t.redraws << YAML::Key << "off_route_draws" << YAML::Value
+    << t.off_route << YAML::Key << "dropped" << YAML::Value << t.dropped
+    << YAML::Key << "file" << YAML::Value << "moving_objects.csv" << YAML::EndMap;
+}
+
+void emit_labels(YAML::Emitter& y, const RunFacts& f) {
+  y << YAML::Key << "labels" << YAML::Value << YAML::BeginMap << YAML::Key << "file" << YAML::Value
+    << "point_labels.bin" << YAML::Key << "points_total" << YAML::Value << f.points << YAML::Key
+    << "moving_points_total" << YAML::Value << f.moving_points << YAML::Key << "moving_fraction" << YAML::Value
+    << (f.points > 0 ? static_cast<double>(f.moving_points) / static_cast<double>(f.points) : 0.0) << YAML::Key
+    << "moving_fraction_mean_per_scan" << YAML::Value << f.mean_scan_moving_fraction << YAML::Key
+    << "scans_with_moving_points" << YAML::Value << f.scans_with_moving_points << YAML::EndMap;
+}
 
 void write_scenario_yaml(const std::string& file, const SimOptions& o, const Scenario& sc, const LidarConfig& lidar,
                          const ImuNoiseConfig& imu, const ImuSimulator& imu_sim, const Eigen::Isometry3d& T,
@@ -176,6 +239,7 @@ void write_scenario_yaml(const std::string& file, const SimOptions& o, const Sce
   y << YAML::Key << "rate_mps" << YAML::Value << law.rate << YAML::Key << "rest_start_s" << YAML::Value
     << law.rest_start_s << YAML::Key << "ramp_s" << YAML::Value << law.ramp_s << YAML::Key << "rest_end_s"
     << YAML::Value << law.rest_end_s;
+  emit_speed_law(y, law);
   const MotionConfig& m = tr.motion();
   y << YAML::Key << "pitch_offset_rad" << YAML::Value << m.pitch_offset << YAML::Key << "roll_offset_rad"
     << YAML::Value << m.roll_offset;
@@ -184,6 +248,7 @@ void write_scenario_yaml(const std::string& file, const SimOptions& o, const Sce
   emit_oscillations(y, "roll_rad", m.roll);
   emit_oscillations(y, "pitch_rad", m.pitch);
   emit_oscillations(y, "yaw_rad", m.yaw);
+  emit_suspension(y, m.suspension);
   y << YAML::EndMap;
   y << YAML::Key << "world" << YAML::Value << YAML::BeginMap << YAML::Key << "boxes" << YAML::Value
     << sc.world.boxes().size() << YAML::Key << "planes" << YAML::Value << sc.world.planes().size();
@@ -220,7 +285,10 @@ void write_scenario_yaml(const std::string& file, const SimOptions& o, const Sce
   emit_vector(y, imu_sim.accel_bias());
   y << YAML::Key << "gravity" << YAML::Value;
   emit_vector(y, kGravityWorld);
+  emit_vibration(y, imu.vibration);
   y << YAML::EndMap;
+  emit_traffic(y, o, sc);
+  emit_labels(y, f);
   const Eigen::Quaterniond q(T.linear());
   y << YAML::Key << "T_imu_lidar" << YAML::Value << YAML::BeginMap << YAML::Key << "translation" << YAML::Value;
   emit_vector(y, T.translation());
@@ -249,10 +317,11 @@ SimSummary run_simulation(const SimOptions& o) {
   const auto log = fuse::logger("sim");
   const auto wall_start = std::chrono::steady_clock::now();
   prepare_out_dir(o.out_dir);
-  const Scenario sc = make_scenario(o.scenario, o.world_seed, o.seed, kStartTime, o.laps, o.start_at_m);
+  const Scenario sc = make_scenario(o.scenario, o.world_seed, o.seed, kStartTime, o.laps, o.start_at_m, o.traffic);
   const Trajectory& tr = *sc.trajectory;
   const LidarConfig lidar = LidarConfig::from_name(o.lidar);
-  const ImuNoiseConfig imu_cfg;
+  ImuNoiseConfig imu_cfg;
+  if (sc.vehicle_vibration) imu_cfg.vibration = vehicle_vibration(o.seed);
   const Eigen::Isometry3d T_imu_lidar = default_T_imu_lidar();
 
   const double full = tr.t_end() - tr.t_begin();
@@ -272,13 +341,24 @@ SimSummary run_simulation(const SimOptions& o) {
   log->info("scenario {} (world seed {}, seed {}): {} boxes, {} planes, path {:.2f} m, {:.2f} s, {} scans, lidar {}",
             o.scenario, o.world_seed, o.seed, sc.world.boxes().size(), sc.world.planes().size(), path_length, duration,
             n_scans, lidar.name);
+  if (sc.traffic)
+    log->info("traffic: {} cars, {} pedestrians ({} draws moved clear of the platform, {} given up)",
+              sc.traffic_stats.cars, sc.traffic_stats.pedestrians, sc.traffic_stats.redraws, sc.traffic_stats.dropped);
+  const std::filesystem::path dir(o.out_dir);
+  PointLabelWriter label_file((dir / "point_labels.bin").string(), n_scans);
+  if (sc.traffic)
+    sc.traffic->write_csv((dir / "moving_objects.csv").string());
+  else
+    Traffic().write_csv((dir / "moving_objects.csv").string());  // the header only
 
   Output output(o, T_imu_lidar);
   ImuSimulator imu(imu_cfg, o.seed);
-  LidarSimulator lidar_sim(lidar, sc.world, tr, T_imu_lidar, o.seed);
+  LidarSimulator lidar_sim(lidar, sc.world, tr, T_imu_lidar, o.seed, sc.traffic ? &*sc.traffic : nullptr);
   std::vector<StampedPose> groundtruth, scan_ends;
   groundtruth.reserve(n_imu);
-  std::size_t imu_next = 0, points = 0;
+  std::size_t imu_next = 0, points = 0, moving_points = 0, scans_with_moving = 0;
+  double scan_fraction_sum = 0.0;
+  std::vector<std::uint8_t> labels;
   double travelled = 0.0, next_progress = kProgressPeriodS;
   auto write_imu_until = [&](std::size_t last) {
     for (; imu_next <= last && imu_next < n_imu; ++imu_next) {
@@ -302,9 +382,15 @@ SimSummary run_simulation(const SimOptions& o) {
         write_imu_until(imu_next);
       }
     }
-    const LidarScan scan = lidar_sim.scan(k, tr.t_begin());
+    const LidarScan scan = lidar_sim.scan(k, tr.t_begin(), &labels);
     points += scan.points.size();
+    const auto moving = static_cast<std::size_t>(std::count(labels.begin(), labels.end(), std::uint8_t{1}));
+    moving_points += moving;
+    scans_with_moving += moving > 0;
+    if (!scan.points.empty())
+      scan_fraction_sum += static_cast<double>(moving) / static_cast<double>(scan.points.size());
     output.write(scan, tr);
+    label_file.write(scan.t_end, labels);
     scan_ends.push_back(to_pose(tr.state(scan.t_end)));
     if (scan.t_end - tr.t_begin() >= next_progress) {
       log->info("simulated {:.0f} / {:.0f} s ({:.1f} s wall)", scan.t_end - tr.t_begin(), duration,
@@ -314,8 +400,11 @@ SimSummary run_simulation(const SimOptions& o) {
   }
   write_imu_until(n_imu - 1);
   output.close(scan_ends);
+  label_file.close();
   eval::write_tum((std::filesystem::path(o.out_dir) / "groundtruth.tum").string(), groundtruth);
-  const RunFacts facts{n_scans, n_imu, points, duration, full, path_length, travelled};
+  const RunFacts facts{n_scans,     n_imu,         points,           duration,
+                       full,        path_length,   travelled,        moving_points,
+                       scans_with_moving, scan_fraction_sum / static_cast<double>(n_scans)};
   write_scenario_yaml((std::filesystem::path(o.out_dir) / "scenario.yaml").string(), o, sc, lidar, imu_cfg, imu,
                       T_imu_lidar, facts);
 
@@ -323,12 +412,17 @@ SimSummary run_simulation(const SimOptions& o) {
   summary.scans = n_scans;
   summary.imu_samples = n_imu;
   summary.points = points;
+  summary.moving_points = moving_points;
   summary.duration_s = duration;
   summary.path_length_m = path_length;
   summary.travelled_m = travelled;
   summary.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   log->info("done: {} scans ({:.0f} points/scan), {} IMU samples, travelled {:.2f} m, in {:.1f} s", n_scans,
             static_cast<double>(points) / static_cast<double>(n_scans), n_imu, travelled, summary.wall_time_s);
+  if (sc.traffic)
+    log->info("moving objects: {} of {} points ({:.2f} %), in {} of {} scans", moving_points, points,
+              100.0 * static_cast<double>(moving_points) / static_cast<double>(std::max<std::size_t>(points, 1)),
+              scans_with_moving, n_scans);
   return summary;
 }
 

@@ -36,7 +36,19 @@ void attitude_zyx(const Jet& yaw, const Jet& pitch, const Jet& roll, Eigen::Matr
 }  // namespace
 
 Trajectory::Trajectory(Path path, const TimeLawConfig& time_law, const MotionConfig& motion, double t0)
-    : path_(std::move(path)), time_law_(time_law, path_.u_end()), motion_(motion), t0_(t0) {}
+    : path_(std::move(path)), time_law_(time_law, path_.u_end()), motion_(motion), t0_(t0) {
+  if (!motion_.suspension.enabled) return;
+  // The suspension responds to the acceleration of the path point c(u(t)) in the heading frame:
+  // a = c' u'' + c'' u'^2, forward along the heading, lateral to its left.
+  const double stopped = time_law_.duration() - time_law_.config().rest_end_s;
+  suspension_.emplace(motion_.suspension, time_law_.duration(), stopped, [this](double tau) {
+    const TimeLawSample s = time_law_.at(tau);
+    const PathPoint c = path_.at(s.u);
+    const Eigen::Vector3d a = c.c1 * s.u2 + c.c2 * (s.u1 * s.u1);
+    const double theta = Path::heading(c).theta, ch = std::cos(theta), sh = std::sin(theta);
+    return Eigen::Vector2d(ch * a.x() + sh * a.y(), -sh * a.x() + ch * a.y());
+  });
+}
 
 TrajectoryState Trajectory::state(double t) const {
   const double tau = std::clamp(t - t0_, 0.0, time_law_.duration());
@@ -61,8 +73,14 @@ TrajectoryState Trajectory::state(double t) const {
   p[2] = p[2] + vertical;
 
   const Jet yaw = heading + envelope * oscillation_sum(motion_.yaw, tau);
-  const Jet pitch = Jet::constant(motion_.pitch_offset) + envelope * oscillation_sum(motion_.pitch, tau);
-  const Jet roll = Jet::constant(motion_.roll_offset) + envelope * oscillation_sum(motion_.roll, tau);
+  Jet pitch = Jet::constant(motion_.pitch_offset) + envelope * oscillation_sum(motion_.pitch, tau);
+  Jet roll = Jet::constant(motion_.roll_offset) + envelope * oscillation_sum(motion_.roll, tau);
+  if (suspension_) {
+    Jet body_pitch, body_roll;
+    suspension_->at(tau, body_pitch, body_roll);
+    pitch = pitch + body_pitch;
+    roll = roll + body_roll;
+  }
 
   TrajectoryState out;
   out.t = t0_ + tau;

@@ -110,4 +110,17 @@ double World::clearance(const Eigen::Vector3d& p) const {
   return best;
 }
 
+double World::clearance_within(const Eigen::Vector3d& p, double radius) const {
+  if (!built_) throw std::logic_error("world: clearance_within() before build()");
+  double best = std::numeric_limits<double>::infinity();
+  for (const Plane& pl : planes_) best = std::min(best, std::abs(pl.normal.dot(p) - pl.offset));
+  const Eigen::Vector3d r = Eigen::Vector3d::Constant(radius);
+  bvh_.overlapping(p - r, p + r, [&](std::uint32_t i) {
+    const Box& b = boxes_[i];
+    const Eigen::Vector3d outside = (b.min - p).cwiseMax(p - b.max).cwiseMax(0.0);
+    best = std::min(best, outside.norm());
+  });
+  return best <= radius ? best : std::numeric_limits<double>::infinity();
+}
+
 }  // namespace fuse::sim

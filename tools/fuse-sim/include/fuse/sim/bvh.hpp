@@ -19,6 +19,10 @@ class Bvh {
   template <typename Visitor>
   void traverse(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double max_range, Visitor&& visit) const;
 
+  /// Visits every primitive i whose bounds overlap the box [lo, hi] (e.g. a point's neighbourhood).
+  template <typename Visitor>
+  void overlapping(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, Visitor&& visit) const;
+
  private:
   struct Node {
     Eigen::Vector3d min = Eigen::Vector3d::Zero(), max = Eigen::Vector3d::Zero();
@@ -71,6 +75,28 @@ void Bvh::traverse(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, do
     const double t_first = left_first ? tr : tl, t_second = left_first ? tl : tr;
     if (t_first <= best) stack[top++] = first;
     if (t_second <= best) stack[top++] = second;
+  }
+}
+
+template <typename Visitor>
+void Bvh::overlapping(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, Visitor&& visit) const {
+  if (nodes_.empty()) return;
+  std::uint32_t stack[kMaxDepth];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const std::uint32_t index = stack[--top];
+    const Node& node = nodes_[index];
+    if ((node.min.array() > hi.array()).any() || (node.max.array() < lo.array()).any()) continue;
+    if (node.count > 0) {
+      for (std::uint32_t i = node.first; i < node.first + node.count; ++i) {
+        const std::uint32_t k = order_[i];
+        if ((mins_[k].array() <= hi.array()).all() && (maxs_[k].array() >= lo.array()).all()) visit(k);
+      }
+      continue;
+    }
+    stack[top++] = node.first;  // right child
+    stack[top++] = index + 1;   // left child
   }
 }
 

@@ -1,14 +1,17 @@
 // IMU measurement model (spec "Model"): gyro = w_body + b_g + n_g,
 // accel = R_WI^T (a_W - g_W) + b_a + n_a, biases follow random walks. Discrete white noise
 // sigma = density * sqrt(rate); bias random-walk step sigma = density / sqrt(rate).
+// A vehicle's IMU also measures engine and road vibration (vibration.hpp), when enabled.
 #pragma once
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <optional>
 
 #include "fuse/core/types.hpp"
 #include "fuse/sim/random.hpp"
 #include "fuse/sim/trajectory.hpp"
+#include "fuse/sim/vibration.hpp"
 
 namespace fuse::sim {
 
@@ -29,6 +32,7 @@ struct ImuNoiseConfig {
   double accel_initial_bias_sigma = 0.05;                    ///< m/s^2, per axis
   bool noise_enabled = true;                                 ///< false: ideal IMU (tests)
   bool bias_enabled = true;                                  ///< false: zero biases (tests)
+  VibrationConfig vibration;                                 ///< enabled: a car's engine and road vibration
 };
 
 /// The ideal (noise- and bias-free) measurement of a trajectory state.
@@ -38,7 +42,8 @@ fuse::ImuSample ideal_imu(const TrajectoryState& state);
 class ImuSimulator {
  public:
   ImuSimulator(const ImuNoiseConfig& config, std::uint64_t seed);
-  /// Measurement at the state's time, then advances the bias random walks by one period.
+  /// Measurement at the state's time (plus the vibration at the state's speed, if enabled), then
+  /// advances the bias random walks by one period.
   fuse::ImuSample measure(const TrajectoryState& state);
   const Eigen::Vector3d& gyro_bias() const { return gyro_bias_; }
   const Eigen::Vector3d& accel_bias() const { return accel_bias_; }
@@ -50,6 +55,7 @@ class ImuSimulator {
 
   ImuNoiseConfig config_;
   Rng rng_;
+  std::optional<Vibration> vibration_;
   Eigen::Vector3d gyro_bias_, accel_bias_, initial_gyro_bias_, initial_accel_bias_;
   std::uint64_t sequence_ = 0;
 };

@@ -4,6 +4,8 @@
 //    rate, so successive revolutions and frames fall between each other (non-repetitive rosette).
 //  - Spinning 32-beam: uniform elevations, 1800 columns per 0.1 s revolution, every beam of a
 //    column fired at the column's time.
+//  - Spinning 64-beam (Ouster OS1-64-like): 64 uniform elevations over -22.5..+22.5 deg, 1024
+//    columns per 0.1 s revolution, fired like the 32-beam unit.
 #pragma once
 
 #include <Eigen/Core>
@@ -13,7 +15,7 @@
 
 namespace fuse::sim {
 
-enum class LidarType { kMid360, kSpinning32 };
+enum class LidarType { kMid360, kSpinning32, kSpinning64 };
 
 struct LidarConfig {
   LidarType type = LidarType::kMid360;
@@ -35,9 +37,14 @@ struct LidarConfig {
 
   static LidarConfig mid360();
   static LidarConfig spinning32();
-  /// "mid360" or "spinning32"; throws std::invalid_argument naming the accepted values.
+  static LidarConfig spinning64();
+  /// "mid360", "spinning32" or "spinning64"; throws std::invalid_argument naming the accepted values.
   static LidarConfig from_name(const std::string& name);
+  /// The accepted model names, in the order of the help text.
+  static const std::vector<std::string>& names();
   int shots_per_frame() const;
+  /// A mechanical spinning unit (beams x columns per revolution) rather than the Mid-360 rosette.
+  bool spinning() const { return type != LidarType::kMid360; }
 };
 
 /// One shot: time since the frame start, line index and unit direction in the LiDAR frame.

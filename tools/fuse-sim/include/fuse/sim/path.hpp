@@ -56,9 +56,16 @@ struct Waypoint {
   double radius = 1.0;
 };
 
+/// Where a rounded corner lies on the path: its arc spans [u_entry, u_exit] (waypoint `waypoint`).
+struct CornerSpan {
+  double u_entry = 0.0, u_exit = 0.0;
+  std::size_t waypoint = 0;
+};
+
 /// Builds a Path through waypoints with rounded corners (see the file comment). The first and last
 /// waypoints are the ends (the path starts and stops there, on a straight segment). Throws
 /// std::invalid_argument when segments are too short for their corners or a radius is not positive.
-Path make_rounded_polyline(const std::vector<Waypoint>& waypoints);
+/// `corners`, if given, receives the span of every corner in path order (e.g. to slow down there).
+Path make_rounded_polyline(const std::vector<Waypoint>& waypoints, std::vector<CornerSpan>* corners = nullptr);
 
 }  // namespace fuse::sim

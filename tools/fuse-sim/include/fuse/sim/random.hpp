@@ -8,8 +8,17 @@
 
 namespace fuse::sim {
 
-/// Independent random streams derived from one seed (world, motion, IMU noise, LiDAR noise).
-enum class Stream : std::uint64_t { kWorld = 1, kMotion = 2, kImu = 3, kLidar = 4 };
+/// Independent random streams derived from one seed (world, motion, IMU noise, LiDAR noise, the
+/// vehicle vibration's parameters and its road noise, the moving objects).
+enum class Stream : std::uint64_t {
+  kWorld = 1,
+  kMotion = 2,
+  kImu = 3,
+  kLidar = 4,
+  kVibration = 5,
+  kRoadNoise = 6,
+  kTraffic = 7,
+};
 
 class Rng {
  public:

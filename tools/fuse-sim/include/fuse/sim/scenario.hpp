@@ -9,6 +9,8 @@
 #include <utility>
 #include <vector>
 
+#include "fuse/sim/street_traffic.hpp"
+#include "fuse/sim/traffic.hpp"
 #include "fuse/sim/trajectory.hpp"
 #include "fuse/sim/world.hpp"
 
@@ -31,16 +33,26 @@ struct Scenario {
   std::optional<Trajectory> trajectory;
   /// Scenario-specific parameters for scenario.yaml (world dimensions, counts, speeds).
   std::vector<std::pair<std::string, double>> parameters;
+  /// A vehicle: its IMU measures engine and road vibration (vibration.hpp).
+  bool vehicle_vibration = false;
+  /// Streets that can carry traffic (urban); the movers, when built with traffic.
+  std::optional<StreetGrid> streets;
+  std::optional<Traffic> traffic;
+  TrafficStats traffic_stats;
 };
 
-/// The accepted names: corridor, stairs, room, campus.
+/// The accepted names: corridor, stairs, room, campus, urban.
 const std::vector<std::string>& scenario_names();
+/// Whether the scenario has moving objects (fuse-sim --traffic): urban.
+bool scenario_has_traffic(const std::string& name);
 
 /// Builds a scenario (world built, ready to cast). Throws std::invalid_argument on an unknown name
 /// or on laps > 1 for a scenario whose path is not a loop (only the corridor's is). start_at > 0
 /// starts the walk that far (path parameter, metres on straight segments) along the path, at rest,
 /// in the same world frame; it throws when that leaves too little path for the speed ramps.
+/// traffic: a scenario with streets gets its moving objects (drawn from the world seed, kept
+/// clear of this trajectory); false leaves the same static world, path and seeds without them.
 Scenario make_scenario(const std::string& name, std::uint64_t world_seed, std::uint64_t seed,
-                       double t0 = kStartTime, int laps = 1, double start_at = 0.0);
+                       double t0 = kStartTime, int laps = 1, double start_at = 0.0, bool traffic = true);
 
 }  // namespace fuse::sim

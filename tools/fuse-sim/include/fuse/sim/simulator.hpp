@@ -1,6 +1,7 @@
 // The whole simulation: scenario -> IMU samples and LiDAR scans written incrementally (MCAP
-// recording or sequence directory), the true IMU pose at the IMU rate (groundtruth.tum) and every
-// parameter used (scenario.yaml). Same options -> byte-identical files.
+// recording or sequence directory), the true IMU pose at the IMU rate (groundtruth.tum), every
+// parameter used (scenario.yaml), the static / moving label of every point (point_labels.bin) and
+// the moving objects (moving_objects.csv). Same options -> byte-identical files.
 #pragma once
 
 #include <cstdint>
@@ -25,10 +26,17 @@ struct SimOptions {
   double imu_time_offset_s = 0.0;
   OutputFormat format = OutputFormat::kMcap;
   std::string out_dir;
+  /// Moving objects in a scenario that has them (urban); false: the same run without them.
+  bool traffic = true;
+  /// Not empty: classify this map point cloud against the scenario's world instead of simulating
+  /// (map_classifier.hpp); points within the tolerance count as on a surface.
+  std::string classify_map;
+  double classify_tolerance_m = 0.3;
 };
 
 struct SimSummary {
   std::size_t scans = 0, imu_samples = 0, points = 0;
+  std::size_t moving_points = 0;  ///< points on moving objects
   double duration_s = 0.0;
   double path_length_m = 0.0;  ///< the whole scenario's path (all laps)
   double travelled_m = 0.0;    ///< what this run walked of it (less with --duration)

@@ -1,15 +1,19 @@
 // The true motion of the IMU frame: a smooth path c(u) walked with the time law u(t), plus
 // handheld / vehicle oscillations (bob, sway, roll, pitch, yaw) whose amplitude scales with the
 // current speed, so the body is exactly at rest whenever u' = 0. The attitude is
-// R_WI = Rz(yaw) Ry(pitch) Rx(roll) with yaw = path heading + oscillation. Everything is
-// evaluated with Jets, so velocity, acceleration and angular velocity are exact derivatives.
+// R_WI = Rz(yaw) Ry(pitch) Rx(roll) with yaw = path heading + oscillation. A vehicle may add
+// suspension pitch and roll that follow its own acceleration (suspension.hpp; the body turns about
+// the IMU). Everything is evaluated with Jets, so velocity, acceleration and angular velocity are
+// exact derivatives.
 #pragma once
 
 #include <Eigen/Geometry>
+#include <optional>
 #include <vector>
 
 #include "fuse/sim/jet.hpp"
 #include "fuse/sim/path.hpp"
+#include "fuse/sim/suspension.hpp"
 #include "fuse/sim/time_law.hpp"
 
 namespace fuse::sim {
@@ -26,6 +30,7 @@ struct MotionConfig {
   std::vector<Oscillation> lateral, vertical, roll, pitch, yaw;
   double pitch_offset = 0.0;  ///< constant attitude offsets (radians)
   double roll_offset = 0.0;
+  SuspensionConfig suspension;  ///< enabled: pitch and roll follow the path acceleration (a car)
 };
 
 /// The exact state at one instant (IMU frame in the world frame).
@@ -54,6 +59,7 @@ class Trajectory {
   TimeLaw time_law_;
   MotionConfig motion_;
   double t0_;
+  std::optional<SuspensionResponse> suspension_;
 };
 
 }  // namespace fuse::sim

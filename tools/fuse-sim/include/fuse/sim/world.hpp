@@ -56,6 +56,9 @@ class World {
   Hit cast_brute_force(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double max_range) const;
   /// Euclidean distance from p to the nearest solid (0 inside a box); brute force, for checks.
   double clearance(const Eigen::Vector3d& p) const;
+  /// The same when it is at most `radius`, otherwise +inf: only the boxes the BVH finds within
+  /// radius of p are measured (fast, e.g. for classifying a million map points). Needs build().
+  double clearance_within(const Eigen::Vector3d& p, double radius) const;
 
   const std::vector<Box>& boxes() const { return boxes_; }
   const std::vector<Plane>& planes() const { return planes_; }
