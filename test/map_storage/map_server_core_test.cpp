@@ -378,12 +378,12 @@ TEST(MapPolicy, ReportsTheInsertedPoints) {
   auto index = make_spatial_index(SpatialIndexConfig{});
   index->insert({Eigen::Vector3f::Zero()});
   std::vector<Eigen::Vector3f> inserted{{9, 9, 9}};
-  make_map_policy(cfg)->apply({{0.1f, 0, 0}, {1, 0, 0}, {0, 2, 0}}, *index, nullptr, &inserted);
+  make_map_policy(cfg)->apply(0.0, {{0.1f, 0, 0}, {1, 0, 0}, {0, 2, 0}}, *index, nullptr, &inserted);
   ASSERT_EQ(inserted.size(), 2u);
   EXPECT_EQ(inserted[0], Eigen::Vector3f(1, 0, 0));
   EXPECT_EQ(inserted[1], Eigen::Vector3f(0, 2, 0));
   cfg.mode = "localization";
-  make_map_policy(cfg)->apply({{5, 5, 5}}, *index, nullptr, &inserted);
+  make_map_policy(cfg)->apply(0.0, {{5, 5, 5}}, *index, nullptr, &inserted);
   EXPECT_TRUE(inserted.empty());
 }
 

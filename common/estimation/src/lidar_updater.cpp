@@ -293,8 +293,9 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
       points_W_.resize(kept);
     }
     const MapUpdateStats map_stats =
-        map_policy_->apply(points_W_, *map_, have_nearest && !report.map_held ? &constraints_.nearest_dist2 : nullptr);
+        map_policy_->apply(scan.t_end, points_W_, *map_, have_nearest && !report.map_held ? &constraints_.nearest_dist2 : nullptr);
     report.map_inserted = map_stats.inserted;
+    report.map_pending = map_stats.pending;
     if (report.updated && map_stats.inserted > 0 && !points_W_.empty()) {
       // Map-frame drift: the filter's covariance P is that of the pose relative to the map, whose
       // points are taken as exact. The points this scan adds sit where its posterior put them, so

@@ -1,17 +1,63 @@
 #include "fuse/map/map_policy.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <iterator>
+#include <string>
 
 namespace fuse {
 
+namespace {
+constexpr double kMaxConfirmS = 30.0;
+constexpr double kMinConfirmCell = 0.05, kMaxConfirmCell = 10.0;
+/// Place keys pack three cell coordinates of this many bits each (±10⁶ cells: ±500 km at 0.5 m).
+constexpr int kKeyBits = 21;
+constexpr std::int64_t kKeyOffset = std::int64_t{1} << (kKeyBits - 1);
+constexpr std::uint64_t kKeyMask = (std::uint64_t{1} << kKeyBits) - 1;
+}  // namespace
+
 void MapPolicyConfig::load(ConfigNode& node) {
   node.get("mode", mode).get("min_point_distance", min_point_distance);
+  node.get("confirm_s", confirm_s).get("confirm_cell", confirm_cell).get("confirm_forget_s", confirm_forget_s);
   node.check(mode == "mapping" || mode == "localization", "mode", "must be mapping or localization");
   node.check(std::isfinite(min_point_distance) && min_point_distance >= 0.0, "min_point_distance", "must be >= 0");
+  node.check(std::isfinite(confirm_s) && confirm_s >= 0.0 && confirm_s <= kMaxConfirmS, "confirm_s",
+             "must be in [0, " + std::to_string(static_cast<int>(kMaxConfirmS)) + "] s");
+  node.check(std::isfinite(confirm_cell) && confirm_cell >= kMinConfirmCell && confirm_cell <= kMaxConfirmCell,
+             "confirm_cell", "must be in [0.05, 10] m");
+  node.check(std::isfinite(confirm_forget_s) && confirm_forget_s > 0.0 && confirm_forget_s <= kMaxConfirmS,
+             "confirm_forget_s", "must be in (0, " + std::to_string(static_cast<int>(kMaxConfirmS)) + "] s");
   node.finish();
 }
 
-MapUpdateStats MappingPolicy::apply(const std::vector<Eigen::Vector3f>& world_points, SpatialIndex& map,
+bool MappingPolicy::confirmed(const Eigen::Vector3f& p, double t) {
+  const auto cell = [&](float v) {
+    const auto c = static_cast<std::int64_t>(std::floor(static_cast<double>(v) / config_.confirm_cell));
+    return static_cast<std::uint64_t>(c + kKeyOffset) & kKeyMask;
+  };
+  const std::uint64_t key = cell(p.x()) | (cell(p.y()) << kKeyBits) | (cell(p.z()) << (2 * kKeyBits));
+  auto [it, fresh] = places_.try_emplace(key, Sighting{t, t});
+  Sighting& s = it->second;
+  if (!fresh) {
+    // Observations may come out of order (a map server's resent ones): the run is [first, last].
+    if (t > s.last + config_.confirm_forget_s || t < s.first - config_.confirm_forget_s) s = Sighting{t, t};
+    s.first = std::min(s.first, t);
+    s.last = std::max(s.last, t);
+  }
+  return s.last - s.first >= config_.confirm_s;
+}
+
+void MappingPolicy::forget_stale(double t) {
+  // A sweep over the places once per confirm_forget_s: the table holds what a few seconds of
+  // scans saw of new space, and a sweep costs far less than a scan.
+  if (t < swept_t_ + config_.confirm_forget_s) return;
+  swept_t_ = t;
+  for (auto it = places_.begin(); it != places_.end();) {
+    it = it->second.last < t - config_.confirm_forget_s ? places_.erase(it) : std::next(it);
+  }
+}
+
+MapUpdateStats MappingPolicy::apply(double t, const std::vector<Eigen::Vector3f>& world_points, SpatialIndex& map,
                                     const std::vector<float>* nearest_dist2,
                                     std::vector<Eigen::Vector3f>* inserted) {
   MapUpdateStats stats;
@@ -19,6 +65,14 @@ MapUpdateStats MappingPolicy::apply(const std::vector<Eigen::Vector3f>& world_po
   to_insert_.clear();
   const float min_dist = static_cast<float>(config_.min_point_distance);
   const bool hinted = nearest_dist2 != nullptr && nearest_dist2->size() == world_points.size();
+  // The first confirm_s of points into an empty map seed it as they are: a single scan is too
+  // sparse to track against, and a place can only be confirmed after confirm_s anyway (a sensor
+  // starts at rest; what moved through the scene in that time is mapped).
+  if (map.size() == 0 && !seeding_) {
+    seeding_ = true;
+    seed_until_ = t + config_.confirm_s;
+  }
+  const bool confirm = config_.confirm_s > 0.0 && t > seed_until_;
   Neighbors nb;
   for (std::size_t i = 0; i < world_points.size(); ++i) {
     const Eigen::Vector3f& p = world_points[i];
@@ -30,7 +84,15 @@ MapUpdateStats MappingPolicy::apply(const std::vector<Eigen::Vector3f>& world_po
         if (nb.count > 0) continue;
       }
     }
+    if (confirm && !confirmed(p, t)) {
+      ++stats.pending;
+      continue;
+    }
     to_insert_.push_back(p);
+  }
+  if (confirm) {
+    newest_t_ = std::max(newest_t_, t);
+    forget_stale(newest_t_);
   }
   map.insert(to_insert_);
   stats.inserted = to_insert_.size();

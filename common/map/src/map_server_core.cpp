@@ -80,7 +80,7 @@ MapServerCore::MapServerCore(const MapServerConfig& config, MapStorage::Access a
       index_built = true;
     }
     std::size_t inserted = 0;
-    apply_points(o.points, inserted);
+    apply_points(o.t, o.points, inserted);
   });
   if (!index_built) rebuild_index();
   meta_.mode = config_.policy.mode;
@@ -111,15 +111,15 @@ void MapServerCore::rebuild_index() {
   map_.for_each_chunk([&](const PointChunk& chunk) { index_->insert(chunk.points); });
 }
 
-std::vector<std::uint64_t> MapServerCore::apply_points(const std::vector<Eigen::Vector3f>& points,
+std::vector<std::uint64_t> MapServerCore::apply_points(double t, const std::vector<Eigen::Vector3f>& points,
                                                        std::size_t& inserted) {
-  mapping_->apply(points, *index_, nullptr, &inserted_);
+  mapping_->apply(t, points, *index_, nullptr, &inserted_);
   inserted = inserted_.size();
   return map_.insert(inserted_);
 }
 
 std::vector<std::uint64_t> MapServerCore::apply_durable(const MapObservation& o, std::size_t& inserted) {
-  std::vector<std::uint64_t> changed = apply_points(o.points, inserted);
+  std::vector<std::uint64_t> changed = apply_points(o.t, o.points, inserted);
   meta_.acks.add_durable(o.session, o.sequence);
   ++meta_.observations;
   return changed;
@@ -250,7 +250,7 @@ std::vector<std::uint64_t> MapServerCore::keep_pending(MapObservation observatio
   // Served at once (the replicas of a fuse-update restarted meanwhile get it), acknowledged only
   // once journaled. Pending observations are journaled in arrival order and nothing is applied
   // between them, so the map is the one journal-then-apply would give.
-  std::vector<std::uint64_t> changed = apply_points(observation.points, inserted);
+  std::vector<std::uint64_t> changed = apply_points(observation.t, observation.points, inserted);
   const std::size_t bytes = sizeof(MapObservation) + observation.points.size() * sizeof(Eigen::Vector3f);
   pending_ids_.insert({observation.session, observation.sequence});
   const std::string name = id(observation.session, observation.sequence);

@@ -16,6 +16,8 @@
 #pragma once
 
 #include <cstdint>
+#include <cstdlib>
+#include <memory>
 #include <vector>
 
 #include "fuse/association/spatial_index.hpp"
@@ -35,13 +37,16 @@ class IVox final : public SpatialIndex {
   std::size_t num_voxels() const { return num_voxels_; }
   /// Slots of the hash table (for tests: it is sized at construction and grows only past
   /// the size it was made for).
-  std::size_t num_slots() const { return slots_.size(); }
+  std::size_t num_slots() const { return num_slots_; }
 
  private:
   using Key = Eigen::Vector3i;
   struct Slot {
     Key key = Key::Zero();
     std::int32_t id = 0;  ///< index into voxels_ plus one; 0 = empty
+  };
+  struct FreeDeleter {
+    void operator()(Slot* p) const { std::free(p); }
   };
   struct Voxel {
     Key key;
@@ -53,6 +58,7 @@ class IVox final : public SpatialIndex {
   Key key_of(const Eigen::Vector3f& p) const;
   std::size_t slot_of(const Key& key) const;  ///< the slot holding key, or the empty slot where it goes
   std::int32_t find(const Key& key) const;    ///< voxel index, -1 if absent
+  void allocate_table(std::size_t capacity);  ///< empty slots
   void rebuild_table(std::size_t capacity);
   void erase_slot(std::size_t slot);
   void link_newest(std::int32_t v);
@@ -62,7 +68,8 @@ class IVox final : public SpatialIndex {
   SpatialIndexConfig config_;
   float voxel_size_, inv_voxel_size_;
   std::vector<Key> offsets_;
-  std::vector<Slot> slots_;
+  std::unique_ptr<Slot[], FreeDeleter> slots_;
+  std::size_t num_slots_ = 0;
   std::vector<Voxel> voxels_;
   std::vector<std::int32_t> free_voxels_;
   std::int32_t oldest_ = -1, newest_ = -1;  ///< ends of the LRU list

@@ -33,6 +33,9 @@ struct ScanReport {
   double prior_rotation_std = 0.0;  ///< rad: largest σ of the prior rotation
   double min_eig_translation = 0.0, min_eig_rotation = 0.0, min_gamma = 1.0, min_eig_ratio = 1.0;
   std::size_t map_points = 0, map_inserted = 0;
+  /// New points not mapped yet: their place has not persisted for map.confirm_s (a moving object,
+  /// or space seen for the first time).
+  std::size_t map_pending = 0;
   /// Map hold: re-localised, or within recovery.map_hold_distance after it; only the points
   /// within recovery.map_hold_radius of the sensor were offered to the map.
   bool map_held = false;

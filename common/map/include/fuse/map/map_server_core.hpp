@@ -218,7 +218,7 @@ class MapServerCore {
   };
 
   void rebuild_index();
-  std::vector<std::uint64_t> apply_points(const std::vector<Eigen::Vector3f>& points, std::size_t& inserted);
+  std::vector<std::uint64_t> apply_points(double t, const std::vector<Eigen::Vector3f>& points, std::size_t& inserted);
   /// Applies a journaled observation to the map and acknowledges it as far as the rule allows.
   std::vector<std::uint64_t> apply_durable(const MapObservation& observation, std::size_t& inserted);
   bool duplicate(std::uint64_t session, std::uint64_t sequence) const;
