@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -248,6 +249,33 @@ TEST(SimMapClassifier, ClassifiesASyntheticUrbanCloudLikeBruteForce) {
     EXPECT_EQ(value(r.out, "ghost_points"), truth.ghost_points) << r.out;
     EXPECT_EQ(value(r.out, "other_points"), truth.other_points) << r.out;
   }
+  // The same cloud in an estimator's frame (the world turned 30 deg about z and moved), with the
+  // estimate of that run: --map-trajectory moves it back and the counts are the same.
+  const Eigen::Isometry3d T_map_world =
+      Eigen::Translation3d(5.0, -3.0, 1.0) * Eigen::AngleAxisd(30.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ());
+  std::vector<Eigen::Vector3f> moved;
+  for (const Eigen::Vector3f& p : points) moved.push_back((T_map_world * p.cast<double>()).cast<float>());
+  const fs::path moved_ply = temp_file("moved.ply"), estimate = temp_file("estimate.tum");
+  write_bytes(moved_ply, ply_header(moved.size()), flat(moved));
+  {
+    std::ofstream tum(estimate);
+    tum.precision(17);
+    for (double t = t0; t <= t0 + 40.0; t += 0.5) {
+      const Eigen::Vector3d p = T_map_world * s.trajectory->state(t).p;
+      tum << t << ' ' << p.x() << ' ' << p.y() << ' ' << p.z() << " 0 0 0 1\n";
+    }
+  }
+  const ExeRun aligned = run(scenario + " --classify-map " + moved_ply.string() + " --map-trajectory " + estimate.string());
+  ASSERT_EQ(aligned.code, 0) << aligned.err;
+  EXPECT_EQ(value(aligned.out, "static_points"), truth.static_points) << aligned.out;
+  EXPECT_EQ(value(aligned.out, "ghost_points"), truth.ghost_points) << aligned.out;
+  const ExeRun unaligned = run(scenario + " --classify-map " + moved_ply.string());
+  ASSERT_EQ(unaligned.code, 0) << unaligned.err;
+  EXPECT_LT(value(unaligned.out, "static_points"), truth.static_points) << unaligned.out;  // mostly off the world
+  EXPECT_EQ(run(scenario + " --classify-map " + moved_ply.string() + " --map-trajectory " + temp_file("none.tum").string()).code, 4);
+  EXPECT_EQ(run(scenario + " --out x --map-trajectory " + estimate.string()).code, 2);
+  fs::remove(moved_ply);
+  fs::remove(estimate);
   // Without traffic nothing is a ghost; a wider tolerance takes more points as static.
   const ExeRun off = run(scenario + " --traffic off --classify-map " + ply.string());
   ASSERT_EQ(off.code, 0) << off.err;

@@ -32,7 +32,7 @@ class BadValue : public std::runtime_error {
 /// The options as typed: CLI11 stores the text, the checks below turn it into SimOptions.
 struct Given {
   std::string scenario, seed, world_seed, duration, laps, start_at, lidar, format, out, imu_time_offset;
-  std::string traffic, classify_map, classify_tolerance;
+  std::string traffic, classify_map, classify_tolerance, map_trajectory;
 };
 
 bool given(const CLI::App& app, const char* flag) { return app.count(flag) > 0; }
@@ -99,6 +99,11 @@ void add_options(CLI::App& app, Given& g) {
   app.add_option("--classify-tolerance", g.classify_tolerance,
                  "with --classify-map: distance in metres within which a point is on a surface (default 0.3)")
       ->type_name("M");
+  app.add_option("--map-trajectory", g.map_trajectory,
+                 "with --classify-map: the estimate (TUM) whose frame the map is in; the map is moved into the world "
+                 "by the rigid alignment of that estimate onto the true trajectory (an estimator's map starts at its "
+                 "first pose, not at the world's origin)")
+      ->type_name("EST.tum");
 }
 
 /// --scenario, --lidar and --format: each a name from its list.
@@ -183,6 +188,9 @@ void check_complete(const CLI::App& app, const Given& g, SimOptions& o) {
     throw BadValue("--traffic: the scenario '" + o.scenario + "' has no moving objects (only urban has)");
   if (given(app, "--classify-tolerance") && o.classify_map.empty())
     throw BadValue("--classify-tolerance: only with --classify-map");
+  if (given(app, "--map-trajectory") && (o.classify_map.empty() || g.map_trajectory.empty()))
+    throw BadValue("--map-trajectory: a file name, only with --classify-map");
+  o.map_trajectory = g.map_trajectory;
 }
 
 }  // namespace

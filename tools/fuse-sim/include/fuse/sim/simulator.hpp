@@ -32,6 +32,9 @@ struct SimOptions {
   /// (map_classifier.hpp); points within the tolerance count as on a surface.
   std::string classify_map;
   double classify_tolerance_m = 0.3;
+  /// Not empty: the map is in the frame of this estimate (TUM, T_map_imu), and is moved into the
+  /// world by the rigid alignment of the estimate onto the true trajectory (as fuse-eval's ATE).
+  std::string map_trajectory;
 };
 
 struct SimSummary {
