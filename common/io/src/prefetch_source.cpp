@@ -14,6 +14,7 @@ PrefetchSource::PrefetchSource(std::unique_ptr<SensorSource> inner, std::size_t 
   if (capacity_ < 1) throw std::invalid_argument("PrefetchSource capacity must be at least 1");
   delivered_ = inner_->stats();
   rejected_ = std::make_shared<const std::map<std::string, std::uint64_t>>(delivered_.rejected);
+  delivered_rejected_ = rejected_;
   reader_ = std::thread([this] { read_loop(); });
 }
 
@@ -66,7 +67,10 @@ bool PrefetchSource::next(SensorEvent& out) {
     Read& read = queue_.front();
     out = std::move(read.ev);
     std::map<std::string, std::uint64_t> rejected = std::move(delivered_.rejected);
-    if (read.rejected && *read.rejected != rejected) rejected = *read.rejected;
+    if (read.rejected != delivered_rejected_) {  // the reader shares one map until it changes
+      delivered_rejected_ = read.rejected;
+      rejected = *read.rejected;
+    }
     delivered_ = read.counts;
     delivered_.rejected = std::move(rejected);
     queue_.pop_front();

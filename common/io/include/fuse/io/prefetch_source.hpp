@@ -61,6 +61,7 @@ class PrefetchSource : public SensorSource {
   SourceStats final_stats_;             ///< the inner source's, once it has ended
   std::shared_ptr<const std::map<std::string, std::uint64_t>> rejected_;  ///< reader thread only
   SourceStats delivered_;               ///< as of the last event next() gave out
+  std::shared_ptr<const std::map<std::string, std::uint64_t>> delivered_rejected_;  ///< behind delivered_.rejected
   mutable SourceStats stats_snapshot_;  ///< what stats() returns
   std::thread reader_;
 };
