@@ -267,6 +267,47 @@ TEST_P(SpatialIndexTest, TrimThenKnnMatchesBruteForce) {
   expect_matches_oracle(*index, again, queries(again, rng), 5, exact_radius());
 }
 
+// erase takes out exactly the stored points equal to the given ones (every copy), ignores points
+// not stored, and leaves an index that answers like the oracle over what remains; rounds of
+// inserts and erases (a map policy taking back points) keep it so, down to empty and back.
+TEST_P(SpatialIndexTest, EraseThenKnnMatchesBruteForce) {
+  std::mt19937 rng(91);
+  auto index = make("nearby26");
+  std::vector<Eigen::Vector3f> all;
+  for (int round = 0; round < 5; ++round) {
+    const auto pts = test::random_cloud(rng, 3000, kCloudHalf);
+    index->insert(pts);
+    all.insert(all.end(), pts.begin(), pts.end());
+    // Every third stored point, a copy of one of them inserted twice, and points never stored.
+    std::vector<Eigen::Vector3f> gone;
+    for (std::size_t i = static_cast<std::size_t>(round); i < all.size(); i += 3) gone.push_back(all[i]);
+    index->insert({gone.front()});
+    all.push_back(gone.front());
+    std::vector<Eigen::Vector3f> request = gone;
+    request.push_back(Eigen::Vector3f(100.0f, 100.0f, 100.0f));
+    request.push_back(gone.front() + Eigen::Vector3f(1e-3f, 0.0f, 0.0f));
+    const std::size_t before = all.size();
+    const auto erased = [&](const Eigen::Vector3f& p) {
+      return std::find(gone.begin(), gone.end(), p) != gone.end();
+    };
+    all.erase(std::remove_if(all.begin(), all.end(), erased), all.end());
+    ASSERT_EQ(index->erase(request), before - all.size()) << "round " << round;
+    ASSERT_EQ(index->size(), all.size()) << "round " << round;
+    ASSERT_EQ(contents(*index), sorted(all)) << "round " << round;
+    expect_matches_oracle(*index, all, queries(all, rng), 5, exact_radius());
+  }
+  std::vector<Eigen::Vector3f> everything = all;
+  EXPECT_EQ(index->erase(everything), all.size());
+  EXPECT_EQ(index->size(), 0u);
+  Neighbors nb;
+  index->knn(Eigen::Vector3f::Zero(), 5, 10.0f, nb);
+  EXPECT_EQ(nb.count, 0);
+  const auto again = test::random_cloud(rng, 500, 2.0f);  // usable after being emptied
+  index->insert(again);
+  EXPECT_EQ(contents(*index), sorted(again));
+  expect_matches_oracle(*index, again, queries(again, rng), 5, exact_radius());
+}
+
 // Coincident points (a voxel's capacity is raised so that voxel types keep them all).
 TEST_P(SpatialIndexTest, CoincidentPoints) {
   SpatialIndexConfig cfg;

@@ -144,8 +144,7 @@ void IVox::unlink(std::int32_t v) {
   vox.older = vox.newer = -1;
 }
 
-void IVox::evict_least_recent() {
-  const std::int32_t v = oldest_;
+void IVox::free_voxel(std::int32_t v) {
   Voxel& vox = voxels_[v];
   unlink(v);
   erase_slot(slot_of(vox.key));
@@ -153,6 +152,24 @@ void IVox::evict_least_recent() {
   vox.points.clear();  // the record keeps its buffer for the voxel made next in its place
   free_voxels_.push_back(v);
   --num_voxels_;
+}
+
+void IVox::evict_least_recent() { free_voxel(oldest_); }
+
+std::size_t IVox::erase(const std::vector<Eigen::Vector3f>& points) {
+  std::size_t removed = 0;
+  for (const Eigen::Vector3f& p : points) {
+    const std::int32_t v = find(key_of(p));
+    if (v < 0) continue;
+    auto& pts = voxels_[v].points;
+    const auto end = std::remove(pts.begin(), pts.end(), p);
+    const auto n = static_cast<std::size_t>(pts.end() - end);
+    pts.erase(end, pts.end());
+    removed += n;
+    num_points_ -= n;
+    if (pts.empty()) free_voxel(v);  // free_voxel subtracts the (now zero) points
+  }
+  return removed;
 }
 
 void IVox::insert(const std::vector<Eigen::Vector3f>& world_points) {

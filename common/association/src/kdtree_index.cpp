@@ -222,22 +222,23 @@ void KdTreeIndex::knn(const Eigen::Vector3f& q, int k, float max_dist, Neighbors
   search(root_, q, k, bound2, out);
 }
 
-std::uint32_t KdTreeIndex::trim_node(std::int32_t idx, const Eigen::Vector3f& center, float half_extent) {
+template <class Untouched, class AllDropped, class Drop>
+std::uint32_t KdTreeIndex::prune(std::int32_t idx, const Untouched& untouched, const AllDropped& all_dropped,
+                                 const Drop& drop) {
   Node& n = nodes_[static_cast<std::size_t>(idx)];
-  if (box_inside(n.lo, n.hi, center, half_extent)) return n.count;
-  if (box_outside(n.lo, n.hi, center, half_extent)) {
+  if (untouched(n.lo, n.hi)) return n.count;
+  if (all_dropped(n.lo, n.hi)) {
     free_subtree(idx);
     return 0;
   }
   if (n.leaf()) {
     auto& pts = n.points;
-    pts.erase(std::remove_if(pts.begin(), pts.end(),
-                             [&](const Eigen::Vector3f& p) { return point_outside(p, center, half_extent); }),
-              pts.end());
+    pts.erase(std::remove_if(pts.begin(), pts.end(), drop), pts.end());
     if (pts.empty()) {
       free_subtree(idx);
       return 0;
     }
+    if (pts.size() != n.count) n.dirty = true;
     n.count = static_cast<std::uint32_t>(pts.size());
     n.lo = n.hi = pts.front();
     for (const Eigen::Vector3f& p : pts) {
@@ -247,8 +248,8 @@ std::uint32_t KdTreeIndex::trim_node(std::int32_t idx, const Eigen::Vector3f& ce
     return n.count;
   }
   const std::int32_t l = n.left, r = n.right;
-  const std::uint32_t nl = trim_node(l, center, half_extent);
-  const std::uint32_t nr = trim_node(r, center, half_extent);
+  const std::uint32_t nl = prune(l, untouched, all_dropped, drop);
+  const std::uint32_t nr = prune(r, untouched, all_dropped, drop);
   if (nl == 0 && nr == 0) {
     Node& m = nodes_[static_cast<std::size_t>(idx)];
     m.left = m.right = -1;  // children already freed
@@ -271,20 +272,41 @@ std::uint32_t KdTreeIndex::trim_node(std::int32_t idx, const Eigen::Vector3f& ce
   Node& m = nodes_[static_cast<std::size_t>(idx)];
   const Node& a = nodes_[static_cast<std::size_t>(l)];
   const Node& b = nodes_[static_cast<std::size_t>(r)];
+  if (m.count != nl + nr) m.dirty = true;
   m.lo = a.lo.cwiseMin(b.lo);
   m.hi = a.hi.cwiseMax(b.hi);
   m.count = nl + nr;
-  m.dirty = true;
   return m.count;
 }
 
-void KdTreeIndex::trim(const Eigen::Vector3f& center, float half_extent) {
+template <class Untouched, class AllDropped, class Drop>
+void KdTreeIndex::prune_root(const Untouched& untouched, const AllDropped& all_dropped, const Drop& drop) {
   if (root_ < 0) return;
-  if (trim_node(root_, center, half_extent) == 0) {
+  if (prune(root_, untouched, all_dropped, drop) == 0) {
     root_ = -1;
     return;
   }
   rebalance(root_);
+}
+
+void KdTreeIndex::trim(const Eigen::Vector3f& center, float half_extent) {
+  prune_root([&](const Eigen::Vector3f& lo, const Eigen::Vector3f& hi) { return box_inside(lo, hi, center, half_extent); },
+             [&](const Eigen::Vector3f& lo, const Eigen::Vector3f& hi) { return box_outside(lo, hi, center, half_extent); },
+             [&](const Eigen::Vector3f& p) { return point_outside(p, center, half_extent); });
+}
+
+std::size_t KdTreeIndex::erase(const std::vector<Eigen::Vector3f>& points) {
+  const std::size_t before = size();
+  for (const Eigen::Vector3f& q : points) {
+    if (root_ < 0) break;
+    prune_root(
+        [&](const Eigen::Vector3f& lo, const Eigen::Vector3f& hi) {
+          return (q.array() < lo.array()).any() || (q.array() > hi.array()).any();
+        },
+        [](const Eigen::Vector3f&, const Eigen::Vector3f&) { return false; },
+        [&](const Eigen::Vector3f& p) { return p == q; });
+  }
+  return before - size();
 }
 
 void KdTreeIndex::for_each_point(const std::function<void(const Eigen::Vector3f&)>& fn) const {

@@ -193,6 +193,29 @@ void VoxelGridIndex::trim(const Eigen::Vector3f& center, float half_extent) {
   rebuild_table(slots_.size());
 }
 
+std::size_t VoxelGridIndex::erase(const std::vector<Eigen::Vector3f>& points) {
+  std::size_t removed = 0;
+  bool emptied = false;
+  for (const Eigen::Vector3f& p : points) {
+    const std::int32_t v = find(key_of(p));
+    if (v < 0) continue;
+    auto& pts = voxels_[static_cast<std::size_t>(v)].points;
+    if (pts.empty()) continue;  // emptied earlier in this call: freed below
+    const auto end = std::remove(pts.begin(), pts.end(), p);
+    removed += static_cast<std::size_t>(pts.end() - end);
+    pts.erase(end, pts.end());
+    if (pts.empty()) {
+      std::vector<Eigen::Vector3f>().swap(pts);
+      free_voxels_.push_back(v);
+      --num_voxels_;
+      emptied = true;
+    }
+  }
+  num_points_ -= removed;
+  if (emptied) rebuild_table(slots_.size());
+  return removed;
+}
+
 void VoxelGridIndex::for_each_point(const std::function<void(const Eigen::Vector3f&)>& fn) const {
   for (const auto& v : voxels_) {
     for (const auto& p : v.points) fn(p);

@@ -31,6 +31,7 @@ class IVox final : public SpatialIndex {
   void insert(const std::vector<Eigen::Vector3f>& world_points) override;
   void knn(const Eigen::Vector3f& q, int k, float max_dist, Neighbors& out) const override;
   void trim(const Eigen::Vector3f& center, float half_extent) override;
+  std::size_t erase(const std::vector<Eigen::Vector3f>& points) override;
   std::size_t size() const override { return num_points_; }
   void for_each_point(const std::function<void(const Eigen::Vector3f&)>& fn) const override;
   std::string name() const override { return "ivox"; }
@@ -64,6 +65,7 @@ class IVox final : public SpatialIndex {
   void link_newest(std::int32_t v);
   void unlink(std::int32_t v);
   void evict_least_recent();
+  void free_voxel(std::int32_t v);  ///< unlinks an emptied or evicted voxel and frees its slot
 
   SpatialIndexConfig config_;
   float voxel_size_, inv_voxel_size_;

@@ -16,7 +16,8 @@
 //    current k-th neighbour (or max_dist). Exact.
 //  * trim: subtrees whose box is inside the kept box stay untouched, those outside it are
 //    freed whole, leaves on the border are filtered; emptied nodes are spliced out, boxes and
-//    counts recomputed, then the same rebalancing runs.
+//    counts recomputed, then the same rebalancing runs. erase prunes the same way, descending
+//    only into the boxes that contain the point.
 // Nodes live in one vector (indices, not pointers) with a free list.
 #pragma once
 
@@ -34,6 +35,7 @@ class KdTreeIndex final : public SpatialIndex {
   void insert(const std::vector<Eigen::Vector3f>& world_points) override;
   void knn(const Eigen::Vector3f& q, int k, float max_dist, Neighbors& out) const override;
   void trim(const Eigen::Vector3f& center, float half_extent) override;
+  std::size_t erase(const std::vector<Eigen::Vector3f>& points) override;
   std::size_t size() const override { return root_ < 0 ? 0 : nodes_[static_cast<std::size_t>(root_)].count; }
   void for_each_point(const std::function<void(const Eigen::Vector3f&)>& fn) const override;
   std::string name() const override { return "kdtree"; }
@@ -62,8 +64,15 @@ class KdTreeIndex final : public SpatialIndex {
   void rebuild(std::int32_t idx);
   void insert_point(const Eigen::Vector3f& p);
   void rebalance(std::int32_t idx);
-  /// Returns the number of points left under idx; idx is freed when that is 0.
-  std::uint32_t trim_node(std::int32_t idx, const Eigen::Vector3f& center, float half_extent);
+  /// Removes the points `drop` selects from the subtree at idx: a subtree whose box `untouched`
+  /// says holds none is skipped, one that `all_dropped` says holds only such points is freed
+  /// whole; emptied nodes are spliced out, boxes and counts recomputed. Returns the number of
+  /// points left under idx; idx is freed when that is 0. (trim and erase.)
+  template <class Untouched, class AllDropped, class Drop>
+  std::uint32_t prune(std::int32_t idx, const Untouched& untouched, const AllDropped& all_dropped, const Drop& drop);
+  /// prune from the root, then the rebalancing check.
+  template <class Untouched, class AllDropped, class Drop>
+  void prune_root(const Untouched& untouched, const AllDropped& all_dropped, const Drop& drop);
   void search(std::int32_t idx, const Eigen::Vector3f& q, int k, float& bound2, Neighbors& out) const;
   int depth(std::int32_t idx) const;
 

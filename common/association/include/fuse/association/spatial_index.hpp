@@ -31,6 +31,9 @@ class SpatialIndex {
   virtual void knn(const Eigen::Vector3f& q, int k, float max_dist, Neighbors& out) const = 0;
   /// Removes every point outside the axis-aligned box of half size half_extent around center.
   virtual void trim(const Eigen::Vector3f& center, float half_extent) = 0;
+  /// Removes every stored point equal to one of `points` (a map policy taking back what it
+  /// inserted); points not stored are ignored. Returns how many were removed.
+  virtual std::size_t erase(const std::vector<Eigen::Vector3f>& points) = 0;
   virtual std::size_t size() const = 0;
   virtual void for_each_point(const std::function<void(const Eigen::Vector3f&)>& fn) const = 0;
   virtual std::string name() const = 0;

@@ -26,6 +26,9 @@ class VoxelGridIndex final : public SpatialIndex {
   void insert(const std::vector<Eigen::Vector3f>& world_points) override;
   void knn(const Eigen::Vector3f& q, int k, float max_dist, Neighbors& out) const override;
   void trim(const Eigen::Vector3f& center, float half_extent) override;
+  /// A voxel emptied by erase is freed and the table rebuilt once per call (this index is the
+  /// exact reference, not the fast one: ivox erases in place).
+  std::size_t erase(const std::vector<Eigen::Vector3f>& points) override;
   std::size_t size() const override { return num_points_; }
   void for_each_point(const std::function<void(const Eigen::Vector3f&)>& fn) const override;
   std::string name() const override { return "voxel_grid"; }
