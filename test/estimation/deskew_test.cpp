@@ -113,6 +113,34 @@ TEST(Deskew, RecoversPointsAtScanEnd) {
   }
 }
 
+// Each point's ray starts where the LiDAR was when it measured the point: its origin, in the
+// scan-end LiDAR frame, is the true LiDAR position at t_i there; the deskewed point lies on the
+// ray from it in the measured direction at the measured range.
+TEST(Deskew, GivesWhereEachRayStarted) {
+  const StateHistory h = make_history();
+  const Scan s = make_scan();
+  Deskewer deskewer;
+  ASSERT_TRUE(deskewer.prepare(h, s.scan.t_start, s.scan.t_end));
+  std::vector<std::uint32_t> all(s.scan.points.size());
+  for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
+  std::vector<Eigen::Vector3f> out, origins;
+  deskewer.apply(s.scan, all, extrinsic(), out, &origins);
+  ASSERT_EQ(origins.size(), all.size());
+  const Eigen::Isometry3d T_WL_end = true_pose(s.scan.t_end) * extrinsic();
+  double worst = 0.0, worst_range = 0.0;
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    const LidarPoint& p = s.scan.points[i];
+    const Eigen::Vector3d truth = T_WL_end.inverse() * (true_pose(s.scan.t_start + p.t_rel) * extrinsic()).translation();
+    worst = std::max(worst, (origins[i].cast<double>() - truth).norm());
+    const double range = Eigen::Vector3d(p.x, p.y, p.z).norm();
+    worst_range = std::max(worst_range, std::abs((out[i] - origins[i]).cast<double>().norm() - range));
+  }
+  EXPECT_LT(worst, kDeskewTol);
+  EXPECT_LT(worst_range, kDeskewTol);
+  // The first point's ray started 0.1 s of motion (0.16 m) away from the scan end's origin.
+  EXPECT_GT(origins.front().cast<double>().norm(), 0.1);
+}
+
 // Without deskew (the points as measured) the same comparison fails by far: the check can fail.
 TEST(Deskew, RawPointsDoNotMatch) {
   const Scan s = make_scan();

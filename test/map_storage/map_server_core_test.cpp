@@ -359,7 +359,8 @@ TEST(MapServerConfig, LoadsValidatesAndRefusesUnknownKeys) {
       {"max_pending_bytes: -1\n", "max_pending_bytes"},
       {"retry_interval_s: 0\n", "retry_interval_s"},
       {"retry_interval_s: 1e9\n", "retry_interval_s"},
-      {"retry_interval_s: .nan\n", "retry_interval_s"}};
+      {"retry_interval_s: .nan\n", "retry_interval_s"},
+      {"policy: {carve_s: 2}\n", "carve_s"}};  // observations carry no ray origins
   for (const auto& [text, key] : bad) {
     MapServerConfig c;
     ConfigNode n = ConfigNode::from_string(text);

@@ -47,7 +47,7 @@ void write_diagnostics(const std::string& path, const std::vector<ScanReport>& r
                        const std::vector<TrackingStatus>& status) {
   std::ofstream f(path);
   f << "scan,t,updated,constraints,rejected_no_neighbors,rejected_not_planar,rejected_screening,"
-       "min_eig_translation,min_eig_rotation,min_eig_ratio,min_gamma,iterations,converged,map_points,map_inserted,map_pending,"
+       "min_eig_translation,min_eig_rotation,min_eig_ratio,min_gamma,iterations,converged,map_points,map_inserted,map_pending,map_carved,"
        "recovery,fit,match_fit,prior_position_std,prior_rotation_std,time_offset_s,tracking\n";
   for (std::size_t i = 0; i < reports.size(); ++i) {
     const auto& r = reports[i];
@@ -55,7 +55,7 @@ void write_diagnostics(const std::string& path, const std::vector<ScanReport>& r
       << r.rejected_no_neighbors << ',' << r.rejected_not_planar << ',' << r.rejected_screening << ','
       << std::scientific << std::setprecision(4) << r.min_eig_translation << ',' << r.min_eig_rotation << ',' << r.min_eig_ratio << ','
       << std::fixed << r.min_gamma << ',' << r.iterations << ',' << r.converged << ',' << r.map_points << ','
-      << r.map_inserted << ',' << r.map_pending << ',' << r.recovery << ',' << r.fit << ',' << r.match_fit << ',' << r.prior_position_std
+      << r.map_inserted << ',' << r.map_pending << ',' << r.map_carved << ',' << r.recovery << ',' << r.fit << ',' << r.match_fit << ',' << r.prior_position_std
       << ',' << r.prior_rotation_std << ',' << std::setprecision(6) << r.time_offset << ',' << to_string(status[i]) << '\n';
   }
 }

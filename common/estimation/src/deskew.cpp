@@ -25,8 +25,9 @@ bool Deskewer::prepare(const StateHistory& history, double t_start, double t_end
 }
 
 void Deskewer::apply(const LidarScan& scan, const std::vector<std::uint32_t>& indices, const Eigen::Isometry3d& T_IL,
-                     std::vector<Eigen::Vector3f>& out) const {
+                     std::vector<Eigen::Vector3f>& out, std::vector<Eigen::Vector3f>* origins) const {
   out.resize(indices.size());
+  if (origins != nullptr) origins->resize(indices.size());
   const Eigen::Matrix3d R_IL = T_IL.linear();
   const Eigen::Vector3d p_IL = T_IL.translation();
   const Eigen::Matrix3d R_LI = R_IL.transpose();
@@ -45,6 +46,7 @@ void Deskewer::apply(const LidarScan& scan, const std::vector<std::uint32_t>& in
     const Eigen::Vector3d p = (1.0 - s) * a.p + s * b.p;
     const Eigen::Vector3d p_I = R_IL * Eigen::Vector3d(pt.x, pt.y, pt.z) + p_IL;
     out[i] = (R_LI * (R * p_I + p - p_IL)).cast<float>();
+    if (origins != nullptr) (*origins)[i] = (R_LI * (R * p_IL + p - p_IL)).cast<float>();
   }
 }
 

@@ -204,8 +204,9 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
     counters_.count("deskew_without_history", "scan start is not covered by the state history: points used as measured");
   }
   if (deskew) {
-    deskewer_.apply(scan, kept_raw_, T_IL, points_L_);
+    deskewer_.apply(scan, kept_raw_, T_IL, points_L_, &origins_L_);
   } else {
+    origins_L_.assign(kept_raw_.size(), Eigen::Vector3f::Zero());
     points_L_.resize(kept_raw_.size());
     for (std::size_t i = 0; i < kept_raw_.size(); ++i) {
       const LidarPoint& p = scan.points[kept_raw_[i]];
@@ -292,9 +293,18 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
       }
       points_W_.resize(kept);
     }
+    // The scan's rays carve the map (a map policy's free-space carving) only from a pose the
+    // update has just confirmed: a scan misplaced would carve through walls.
+    const bool trusted = report.updated && report.converged && !report.recovery && !report.map_held;
+    if (trusted) {
+      origins_W_.resize(origins_L_.size());
+      for (std::size_t i = 0; i < origins_L_.size(); ++i) origins_W_[i] = R * origins_L_[i] + t;
+    }
     const MapUpdateStats map_stats =
-        map_policy_->apply(scan.t_end, points_W_, *map_, have_nearest && !report.map_held ? &constraints_.nearest_dist2 : nullptr);
+        map_policy_->apply(scan.t_end, points_W_, *map_, have_nearest && !report.map_held ? &constraints_.nearest_dist2 : nullptr,
+                           nullptr, trusted ? &origins_W_ : nullptr);
     report.map_inserted = map_stats.inserted;
+    report.map_carved = map_stats.carved;
     report.map_pending = map_stats.pending;
     if (report.updated && map_stats.inserted > 0 && !points_W_.empty()) {
       // Map-frame drift: the filter's covariance P is that of the pose relative to the map, whose

@@ -14,6 +14,7 @@ constexpr double kMinConfirmCell = 0.05, kMaxConfirmCell = 10.0;
 constexpr int kKeyBits = 21;
 constexpr std::int64_t kKeyOffset = std::int64_t{1} << (kKeyBits - 1);
 constexpr std::uint64_t kKeyMask = (std::uint64_t{1} << kKeyBits) - 1;
+
 }  // namespace
 
 void MapPolicyConfig::load(ConfigNode& node) {
@@ -27,6 +28,23 @@ void MapPolicyConfig::load(ConfigNode& node) {
              "confirm_cell", "must be in [0.05, 10] m");
   node.check(std::isfinite(confirm_forget_s) && confirm_forget_s > 0.0 && confirm_forget_s <= kMaxConfirmS,
              "confirm_forget_s", "must be in (0, " + std::to_string(static_cast<int>(kMaxConfirmS)) + "] s");
+  node.get("carve_s", carve_s).get("carve_radius", carve_radius);
+  node.get("carve_beyond", carve_beyond).get("carve_margin", carve_margin);
+  node.check(std::isfinite(carve_s) && carve_s >= 0.0 && carve_s <= kMaxConfirmS, "carve_s",
+             "must be in [0, " + std::to_string(static_cast<int>(kMaxConfirmS)) + "] s");
+  node.check(std::isfinite(carve_radius) && carve_radius > 0.0 && carve_radius <= 1.0, "carve_radius",
+             "must be in (0, 1] m");
+  node.check(std::isfinite(carve_beyond) && carve_beyond >= 0.0 && carve_beyond <= 1.0, "carve_beyond",
+             "must be in [0, 1]");
+  node.get("carve_tests", carve_tests).get("carve_release_s", carve_release_s);
+  node.get("carve_min_incidence_deg", carve_min_incidence_deg);
+  node.check(std::isfinite(carve_min_incidence_deg) && carve_min_incidence_deg >= 0.0 && carve_min_incidence_deg < 90.0,
+             "carve_min_incidence_deg", "must be in [0, 90) degrees");
+  node.check(std::isfinite(carve_release_s) && carve_release_s > 0.0 && carve_release_s <= kMaxConfirmS,
+             "carve_release_s", "must be in (0, " + std::to_string(static_cast<int>(kMaxConfirmS)) + "] s");
+  node.check(carve_tests >= 1, "carve_tests", "must be >= 1");
+  node.check(std::isfinite(carve_margin) && carve_margin >= 0.0 && carve_margin <= 10.0, "carve_margin",
+             "must be in [0, 10] m");
   node.finish();
 }
 
@@ -57,11 +75,21 @@ void MappingPolicy::forget_stale(double t) {
   }
 }
 
+MappingPolicy::MappingPolicy(const MapPolicyConfig& config)
+    : config_(config), carver_(CarveConfig{config.carve_s, config.carve_radius, config.carve_beyond, config.carve_margin,
+                                           config.carve_min_incidence_deg, config.carve_release_s, config.carve_tests}) {}
+
 MapUpdateStats MappingPolicy::apply(double t, const std::vector<Eigen::Vector3f>& world_points, SpatialIndex& map,
                                     const std::vector<float>* nearest_dist2,
-                                    std::vector<Eigen::Vector3f>* inserted) {
+                                    std::vector<Eigen::Vector3f>* inserted,
+                                    const std::vector<Eigen::Vector3f>* origins) {
   MapUpdateStats stats;
   stats.offered = world_points.size();
+  const bool carving = config_.carve_s > 0.0;
+  if (carving && origins != nullptr && origins->size() == world_points.size()) {
+    const std::vector<Eigen::Vector3f>& carved = carver_.carve(t, world_points, *origins, map);
+    if (!carved.empty()) stats.carved = map.erase(carved);
+  }
   to_insert_.clear();
   const float min_dist = static_cast<float>(config_.min_point_distance);
   const bool hinted = nearest_dist2 != nullptr && nearest_dist2->size() == world_points.size();
@@ -96,6 +124,7 @@ MapUpdateStats MappingPolicy::apply(double t, const std::vector<Eigen::Vector3f>
   }
   map.insert(to_insert_);
   stats.inserted = to_insert_.size();
+  if (carving) carver_.add(t, to_insert_);
   if (inserted != nullptr) *inserted = to_insert_;
   return stats;
 }

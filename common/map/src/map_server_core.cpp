@@ -41,6 +41,10 @@ void MapServerConfig::load(ConfigNode& node) {
   load_section(node, "policy", policy);
   load_section(node, "index", index);
   node.check(!directory.empty(), "directory", "must be set");
+  // An observation carries its points, not where each ray started: the server cannot carve.
+  node.check(policy.carve_s == 0.0, "policy.carve_s",
+             "must be 0: the map server does not carve free space (its observations carry no ray origins); "
+             "carving runs in the estimator (estimator.map.carve_s)");
   // With a trailing separator on both, "map", "./map" and "map/" compare equal.
   node.check((std::filesystem::path(saved_directory) / "").lexically_normal() !=
                  (std::filesystem::path(directory) / "").lexically_normal(),

@@ -18,9 +18,11 @@ class Deskewer {
   /// Prepares the relative poses T_WI(t_e)⁻¹·T_WI(t) over [t_start, t_end] from the history.
   /// Returns false when the history does not cover the scan.
   bool prepare(const StateHistory& history, double t_start, double t_end);
-  /// Deskews the selected points (indices into scan.points) with the extrinsic T_IL.
+  /// Deskews the selected points (indices into scan.points) with the extrinsic T_IL. origins
+  /// (optional) receives where the LiDAR was when it measured each point, in the same frame:
+  /// the start of the point's ray, T_IL⁻¹ · T_WI(t_e)⁻¹ · T_WI(t_i) · T_IL · 0.
   void apply(const LidarScan& scan, const std::vector<std::uint32_t>& indices, const Eigen::Isometry3d& T_IL,
-             std::vector<Eigen::Vector3f>& out) const;
+             std::vector<Eigen::Vector3f>& out, std::vector<Eigen::Vector3f>* origins = nullptr) const;
 
  private:
   struct Knot {

@@ -116,6 +116,7 @@ class LidarUpdater {
   Eigen::Isometry3d T_WL_ = Eigen::Isometry3d::Identity();
   // Per-scan buffers reused to avoid allocation on the hot path.
   std::vector<Eigen::Vector3f> raw_, points_L_, points_W_;
+  std::vector<Eigen::Vector3f> origins_L_, origins_W_;  ///< where each point's ray started (deskew)
   std::vector<std::uint32_t> in_range_, kept_, kept_raw_;
   std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed_;
   ConstraintSet constraints_;

@@ -36,6 +36,7 @@ struct ScanReport {
   /// New points not mapped yet: their place has not persisted for map.confirm_s (a moving object,
   /// or space seen for the first time).
   std::size_t map_pending = 0;
+  std::size_t map_carved = 0;   ///< map points a ray of this scan showed empty (free-space carving)
   /// Map hold: re-localised, or within recovery.map_hold_distance after it; only the points
   /// within recovery.map_hold_radius of the sensor were offered to the map.
   bool map_held = false;

@@ -3,6 +3,9 @@
 //                 `min_point_distance` of it (keeps density bounded where the map is complete);
 //                 with `confirm_s` > 0, a point where the map has nothing yet waits until its
 //                 place has been seen for that long (moving objects stay out of the map);
+//                 with `carve_s` > 0, a point inserted less than carve_s ago is taken out again
+//                 when a later ray passes through it (free-space carving: what a car or a
+//                 pedestrian left behind when it moved on);
 //   localization: the map is fixed; observations only serve association.
 #pragma once
 
@@ -15,6 +18,7 @@
 
 #include "fuse/association/spatial_index.hpp"
 #include "fuse/core/config.hpp"
+#include "fuse/map/free_space_carver.hpp"
 
 namespace fuse {
 
@@ -29,6 +33,27 @@ struct MapPolicyConfig {
   double confirm_s = 0.0;
   double confirm_cell = 0.5;      ///< m, the size of a place for confirm_s
   double confirm_forget_s = 1.0;  ///< s, a place not seen again for this long starts over
+  /// s, mapping: free-space carving. A point stays on probation this long after it was inserted:
+  /// a ray of a later scan that passes within carve_radius of it and ends well beyond it
+  /// (carve_beyond, carve_margin) shows the space empty, and the point is removed. 0: off. The
+  /// probation bounds the work (only young points are tested) and protects the settled map from
+  /// a scan placed wrongly; a moving object leaves its place within a second or two.
+  double carve_s = 0.0;
+  double carve_radius = 0.25;  ///< m, how close a ray must pass to a point to carve it
+  /// The ray must go on beyond the point by at least carve_beyond × the point's range +
+  /// carve_margin: it must not carve the surface it ends on just short of its end (a ray
+  /// grazing a surface is carve_min_incidence_deg's case). See free_space_carver.hpp.
+  double carve_beyond = 0.15;
+  double carve_margin = 0.5;  ///< m
+  /// Young points tested per scan at most: beyond it each is tested every few scans (in turn),
+  /// so that a fast drive through new space cannot make a scan slow.
+  std::size_t carve_tests = 20000;
+  /// s, a point whose place later scans keep hitting for this long is a surface that stays: it
+  /// leaves probation (moving objects do not stay in a place of 2·carve_radius that long).
+  double carve_release_s = 0.5;
+  /// degrees: a ray meeting the plane of the map around a point at less than this grazes a
+  /// surface seen edge-on (a corridor's wall, the ground far ahead) and does not carve it.
+  double carve_min_incidence_deg = 15.0;
   void load(ConfigNode& node);
 };
 
@@ -36,7 +61,9 @@ struct MapUpdateStats {
   std::size_t offered = 0;
   std::size_t inserted = 0;
   std::size_t pending = 0;  ///< new points whose place is not confirmed yet (confirm_s)
+  std::size_t carved = 0;   ///< map points removed because a ray passed through them (carve_s)
 };
+
 
 class MapPolicy {
  public:
@@ -45,20 +72,26 @@ class MapPolicy {
   /// point, when the association has just measured it; saves searching the map again.
   /// inserted (optional): receives the points the policy inserted into the map (cleared first).
   /// t: when the points were measured (s), for a policy that judges persistence over time.
+  /// origins (optional, one per point): where the LiDAR was when it measured each point (world
+  /// frame), so that point i ends the ray origins[i] → world_points[i]; only a scan whose pose
+  /// is trusted should pass them (they carve the map).
   virtual MapUpdateStats apply(double t, const std::vector<Eigen::Vector3f>& world_points, SpatialIndex& map,
                                const std::vector<float>* nearest_dist2 = nullptr,
-                               std::vector<Eigen::Vector3f>* inserted = nullptr) = 0;
+                               std::vector<Eigen::Vector3f>* inserted = nullptr,
+                               const std::vector<Eigen::Vector3f>* origins = nullptr) = 0;
   virtual std::string name() const = 0;
 };
 
 class MappingPolicy final : public MapPolicy {
  public:
-  explicit MappingPolicy(const MapPolicyConfig& config) : config_(config) {}
+  explicit MappingPolicy(const MapPolicyConfig& config);
   MapUpdateStats apply(double t, const std::vector<Eigen::Vector3f>& world_points, SpatialIndex& map,
                        const std::vector<float>* nearest_dist2 = nullptr,
-                       std::vector<Eigen::Vector3f>* inserted = nullptr) override;
+                       std::vector<Eigen::Vector3f>* inserted = nullptr,
+                       const std::vector<Eigen::Vector3f>* origins = nullptr) override;
   std::string name() const override { return "mapping"; }
   std::size_t places_pending() const { return places_.size(); }
+  std::size_t points_on_probation() const { return carver_.on_probation(); }
 
  private:
   /// When a place not yet in the map was seen: first and last of an unbroken run of sightings.
@@ -75,15 +108,16 @@ class MappingPolicy final : public MapPolicy {
   double newest_t_ = -1e300, swept_t_ = -1e300;
   bool seeding_ = false;     ///< the map was empty once: its seed period has been set
   double seed_until_ = -1e300;  ///< until then points go in without confirmation
+  FreeSpaceCarver carver_;
 };
 
 class LocalizationPolicy final : public MapPolicy {
  public:
   MapUpdateStats apply(double, const std::vector<Eigen::Vector3f>& world_points, SpatialIndex&,
-                       const std::vector<float>* = nullptr,
-                       std::vector<Eigen::Vector3f>* inserted = nullptr) override {
+                       const std::vector<float>* = nullptr, std::vector<Eigen::Vector3f>* inserted = nullptr,
+                       const std::vector<Eigen::Vector3f>* = nullptr) override {
     if (inserted != nullptr) inserted->clear();
-    return {world_points.size(), 0, 0};
+    return {world_points.size(), 0, 0, 0};
   }
   std::string name() const override { return "localization"; }
 };

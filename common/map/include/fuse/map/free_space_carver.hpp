@@ -1,0 +1,106 @@
+// Free-space carving for the mapping policy (map_policy.hpp, `carve_s`): a point the map took in
+// less than `carve_s` ago is on probation; when a ray of a later scan passes through it and
+// goes on well beyond, the space is empty now and the point is taken out of the map. That is
+// what a car or a pedestrian leaves behind when it moves on; a wall or a pole stays, because
+// the rays towards it end on it.
+//
+// The test, for a young point c and a ray from o along the unit direction u with length L:
+//     s = (c − o)·u > 0,   |c − o|² − s² < carve_radius²,   L ≥ s·(1 + carve_beyond) + carve_margin.
+// The last condition keeps a ray from carving the surface it ends on just short of its end. A
+// ray that grazes a surface (a corridor's wall, the ground far ahead) runs close to that
+// surface's points long before its end, so a point is also kept when the map around it is a
+// plane the ray meets at less than min_incidence_deg: a surface seen edge-on, not free space.
+//
+// Finding the rays near c: the scan's rays are binned by direction in a range image (2° pixels)
+// seen from a point of the path the LiDAR moved along during the scan, and c is tested against
+// the rays of the pixels around its own direction. The path matters at vehicle speed (1.5 m per
+// scan at 15 m/s): the rays are split into slices along it, each with its own image seen from
+// its middle, so the window stays narrow. A ray missed by the window only means a point is not
+// carved by that scan: every carve is decided by the exact test above.
+//
+// A point that later scans keep hitting is a surface that stays: once its cell (an edge of
+// 2·radius) has been hit over release_s, it leaves probation untested. A moving object does
+// not stay in a cell that long (a pedestrian at 1.4 m/s crosses 0.3 m in 0.2 s). This keeps the
+// points on probation few (what is new, what moved, what is seen too rarely to tell), and a
+// settled wall safe from an unlucky ray.
+//
+// Work per scan is bounded (`max_tests` young points at most, in turn): a fast drive through
+// new space cannot make a scan slow.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <unordered_map>
+#include <vector>
+
+#include "fuse/association/spatial_index.hpp"
+
+namespace fuse {
+
+struct CarveConfig {
+  double probation_s = 0.0;  ///< s, how long an inserted point can be carved (0: off)
+  double radius = 0.25;      ///< m, how close a ray must pass to a point to carve it
+  double beyond = 0.15;      ///< the ray must go on by this fraction of the point's range ...
+  double margin = 0.5;       ///< m, ... plus this
+  double min_incidence_deg = 15.0;  ///< a ray shallower than this to the point's plane does not carve it
+  double release_s = 0.5;    ///< s, a point whose cell is hit over this long leaves probation
+  std::size_t max_tests = 20000;  ///< young points tested per scan at most
+};
+
+class FreeSpaceCarver {
+ public:
+  explicit FreeSpaceCarver(const CarveConfig& config) : config_(config) {}
+
+  /// Puts the points the map has just taken in (at time t) on probation.
+  void add(double t, const std::vector<Eigen::Vector3f>& inserted);
+  /// Tests the young points against one scan's rays, ray i from origins[i] to ends[i] (world
+  /// frame, measured at t), and returns the carved ones (no longer on probation; the caller
+  /// removes them from the map). Points older than probation_s at t leave probation first.
+  const std::vector<Eigen::Vector3f>& carve(double t, const std::vector<Eigen::Vector3f>& ends,
+                                            const std::vector<Eigen::Vector3f>& origins, const SpatialIndex& map);
+  std::size_t on_probation() const { return young_.size(); }
+  std::size_t released() const { return released_; }
+
+ private:
+  struct Young {
+    Eigen::Vector3f p;
+    double t;
+    std::uint32_t cell;  ///< index into cells_
+  };
+  /// When the scans hit a cell holding young points: first (its first point's insertion) and last.
+  struct Hits {
+    std::uint64_t key;
+    double first, last;
+  };
+  struct Ray {
+    Eigen::Vector3f o, u;
+    float s_max;  ///< carves only points projecting onto (0, s_max)
+  };
+  std::uint64_t cell_of(const Eigen::Vector3f& p) const;
+  void note_hits(double t, const std::vector<Eigen::Vector3f>& ends);
+  void bin_rays(const std::vector<Eigen::Vector3f>& ends, const std::vector<Eigen::Vector3f>& origins);
+  bool carves(const Eigen::Vector3f& c, const SpatialIndex& map) const;
+  /// Whether the ray along u meets the map's surface at c at min_incidence_deg or more (true
+  /// where the map around c is not a plane: nothing to graze).
+  bool steep_enough(const Eigen::Vector3f& c, const Eigen::Vector3f& u, const SpatialIndex& map, int& plane_state,
+                    Eigen::Vector3f& normal) const;
+
+  CarveConfig config_;
+  std::deque<Young> young_;
+  std::vector<Hits> cells_;                             ///< a pool: freed records are reused
+  std::vector<std::uint32_t> free_cells_;
+  std::unordered_map<std::uint64_t, std::uint32_t> cell_index_;  ///< key → cells_ index
+  double swept_t_ = -1e300;
+  std::size_t scans_ = 0, released_ = 0;
+  // This scan's rays, binned: slice k's rays of pixel q are rays_[start_[k·P + q] .. start_[k·P + q + 1]).
+  int slices_ = 1;
+  Eigen::Vector3f slice_origin_[8];  ///< the point each slice's image is seen from
+  float slice_half_ = 0.0f;          ///< how far a slice's ray origins lie from it, at most
+  std::vector<std::uint32_t> start_, cursor_, bin_;
+  std::vector<Ray> rays_, unsorted_;
+  std::vector<Eigen::Vector3f> carved_;
+};
+
+}  // namespace fuse

@@ -1,0 +1,234 @@
+#include "fuse/map/free_space_carver.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <iterator>
+
+#include "fuse/association/associator.hpp"
+
+namespace fuse {
+
+namespace {
+constexpr int kAzimuthPixels = 180, kElevationPixels = 90;  // 2° pixels
+constexpr int kPixels = kAzimuthPixels * kElevationPixels;
+constexpr float kPi = 3.14159265358979f;
+constexpr float kPixelsPerRad = static_cast<float>(kAzimuthPixels) / (2.0f * kPi);
+/// At most this many slices along the scan's path (each a range image of kPixels).
+constexpr int kMaxSlices = 8;
+/// A window reaches out this many pixels on each side at most (in elevation; twice that in
+/// azimuth near the poles): a point nearer than that angle allows is tested against fewer rays.
+constexpr int kMaxWindow = 6;
+/// The plane around a young point, for the grazing test: its nearest map points (as many as the
+/// association's default), within a voxel's reach, all within the association's default
+/// plane thickness of the fitted plane.
+constexpr int kPlanePoints = 5;
+constexpr float kPlaneReach = 0.5f, kPlaneThickness = 0.1f;
+
+/// atan2 within 0.0015 rad (0.09°, a twentieth of a pixel), without a libm call: atan on [0, 1]
+/// by the rational-free approximation π/4·x − x(x − 1)(0.2447 + 0.0663x), then the octant.
+float fast_atan2(float y, float x) {
+  const float ax = std::abs(x), ay = std::abs(y);
+  const float hi = std::max(ax, ay);
+  if (hi == 0.0f) return 0.0f;
+  const float q = std::min(ax, ay) / hi;
+  float r = 0.25f * kPi * q - q * (q - 1.0f) * (0.2447f + 0.0663f * q);
+  if (ay > ax) r = 0.5f * kPi - r;
+  if (x < 0.0f) r = kPi - r;
+  return y < 0.0f ? -r : r;
+}
+
+struct Pixel {
+  int a, e;  ///< azimuth and elevation pixel
+};
+Pixel pixel_of(const Eigen::Vector3f& d) {
+  const float az = fast_atan2(d.y(), d.x());
+  const float el = fast_atan2(d.z(), std::sqrt(d.x() * d.x() + d.y() * d.y()));
+  return {std::clamp(static_cast<int>((az + kPi) * kPixelsPerRad), 0, kAzimuthPixels - 1),
+          std::clamp(static_cast<int>((el + 0.5f * kPi) * kPixelsPerRad), 0, kElevationPixels - 1)};
+}
+
+/// 1 / cos of the elevation farthest from the horizon among rows [e_lo, e_hi] (azimuth pixels
+/// narrow towards the poles by cos(elevation)); capped where the window spans the circle anyway.
+float inv_cos_rows(int e_lo, int e_hi) {
+  const float centre = 0.5f * static_cast<float>(kElevationPixels);
+  const float rows = std::max(std::abs(static_cast<float>(e_lo) - centre), std::abs(static_cast<float>(e_hi + 1) - centre));
+  return 1.0f / std::max(std::cos(std::min(rows / kPixelsPerRad, 0.5f * kPi)), 0.1f);
+}
+}  // namespace
+
+std::uint64_t FreeSpaceCarver::cell_of(const Eigen::Vector3f& p) const {
+  // Three 21-bit cell coordinates, offset binary (±10⁶ cells: ±400 km at 0.4 m).
+  const double inv = 1.0 / (2.0 * config_.radius);
+  const auto c = [&](float v) {
+    return static_cast<std::uint64_t>(static_cast<std::int64_t>(std::floor(static_cast<double>(v) * inv)) + (1 << 20)) &
+           0x1FFFFF;
+  };
+  return c(p.x()) | (c(p.y()) << 21) | (c(p.z()) << 42);
+}
+
+void FreeSpaceCarver::add(double t, const std::vector<Eigen::Vector3f>& inserted) {
+  for (const Eigen::Vector3f& p : inserted) {
+    const std::uint64_t key = cell_of(p);
+    auto [it, fresh] = cell_index_.try_emplace(key, 0);
+    if (fresh) {
+      if (free_cells_.empty()) {
+        it->second = static_cast<std::uint32_t>(cells_.size());
+        cells_.push_back({key, t, t});
+      } else {
+        it->second = free_cells_.back();
+        free_cells_.pop_back();
+        cells_[it->second] = {key, t, t};
+      }
+    }
+    young_.push_back({p, t, it->second});
+  }
+}
+
+void FreeSpaceCarver::note_hits(double t, const std::vector<Eigen::Vector3f>& ends) {
+  for (const Eigen::Vector3f& p : ends) {
+    const auto it = cell_index_.find(cell_of(p));
+    if (it != cell_index_.end()) cells_[it->second].last = std::max(cells_[it->second].last, t);
+  }
+  // A cell is last hit no earlier than its youngest point was inserted: one not hit for
+  // probation_s holds no young point any more. Swept that often.
+  if (t < swept_t_ + config_.probation_s) return;
+  swept_t_ = t;
+  for (auto it = cell_index_.begin(); it != cell_index_.end();) {
+    if (cells_[it->second].last < t - config_.probation_s) {
+      free_cells_.push_back(it->second);
+      it = cell_index_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+}
+
+void FreeSpaceCarver::bin_rays(const std::vector<Eigen::Vector3f>& ends, const std::vector<Eigen::Vector3f>& origins) {
+  // The path's two ends: the origin farthest from the first one, and the one farthest from it.
+  std::size_t ia = 0, ib = 0;
+  for (std::size_t i = 0; i < origins.size(); ++i) {
+    if ((origins[i] - origins[0]).squaredNorm() > (origins[ia] - origins[0]).squaredNorm()) ia = i;
+  }
+  for (std::size_t i = 0; i < origins.size(); ++i) {
+    if ((origins[i] - origins[ia]).squaredNorm() > (origins[ib] - origins[ia]).squaredNorm()) ib = i;
+  }
+  const Eigen::Vector3f a = origins[ia];
+  const Eigen::Vector3f path = origins[ib] - a;
+  const float length = path.norm();
+  // Slices no longer than the carve radius: a window widens by the slice's half length.
+  const auto radius = static_cast<float>(config_.radius);
+  slices_ = std::clamp(static_cast<int>(std::ceil(length / (2.0f * radius))), 1, kMaxSlices);
+  const Eigen::Vector3f dir = length > 0.0f ? Eigen::Vector3f(path / length) : Eigen::Vector3f::Zero();
+  for (int k = 0; k < slices_; ++k) {
+    slice_origin_[k] = a + path * ((static_cast<float>(k) + 0.5f) / static_cast<float>(slices_));
+  }
+  const auto slice_of = [&](const Eigen::Vector3f& o) {
+    if (length <= 0.0f) return 0;
+    const float f = (o - a).dot(dir) / length;
+    return std::clamp(static_cast<int>(f * static_cast<float>(slices_)), 0, slices_ - 1);
+  };
+
+  // Rays precomputed (unit direction, the farthest projection they carve), then binned by slice
+  // and pixel with a counting sort.
+  const auto beyond = static_cast<float>(1.0 + config_.beyond);
+  const auto margin = static_cast<float>(config_.margin);
+  start_.assign(static_cast<std::size_t>(slices_) * kPixels + 1, 0);
+  bin_.resize(ends.size());
+  std::vector<Ray>& rays = unsorted_;
+  rays.resize(ends.size());
+  slice_half_ = 0.0f;
+  for (std::size_t i = 0; i < ends.size(); ++i) {
+    const Eigen::Vector3f ray = ends[i] - origins[i];
+    const float len = ray.norm();
+    const int k = slice_of(origins[i]);
+    slice_half_ = std::max(slice_half_, (origins[i] - slice_origin_[k]).norm());
+    rays[i] = {origins[i], len > 0.0f ? Eigen::Vector3f(ray / len) : Eigen::Vector3f::Zero(), (len - margin) / beyond};
+    const Pixel px = pixel_of(ends[i] - slice_origin_[k]);
+    bin_[i] = static_cast<std::uint32_t>(k * kPixels + px.e * kAzimuthPixels + px.a);
+    ++start_[bin_[i] + 1];
+  }
+  for (std::size_t q = 1; q < start_.size(); ++q) start_[q] += start_[q - 1];
+  cursor_.assign(start_.begin(), start_.end() - 1);
+  rays_.resize(ends.size());
+  for (std::size_t i = 0; i < ends.size(); ++i) rays_[cursor_[bin_[i]]++] = rays[i];
+}
+
+bool FreeSpaceCarver::steep_enough(const Eigen::Vector3f& c, const Eigen::Vector3f& u, const SpatialIndex& map,
+                                   int& plane_state, Eigen::Vector3f& normal) const {
+  if (plane_state == 0) {  // the plane around c, fitted once per point and scan
+    Neighbors nb;
+    map.knn(c, kPlanePoints, kPlaneReach, nb);
+    float d = 0.0f;
+    plane_state = nb.count >= kPlanePoints && fit_plane(nb.points, nb.count, kPlaneThickness, normal, d) ? 1 : 2;
+  }
+  if (plane_state == 2) return true;
+  return std::abs(normal.dot(u)) >= static_cast<float>(std::sin(config_.min_incidence_deg * kPi / 180.0));
+}
+
+bool FreeSpaceCarver::carves(const Eigen::Vector3f& c, const SpatialIndex& map) const {
+  int plane_state = 0;  // 0 not fitted, 1 a plane (normal), 2 no plane
+  Eigen::Vector3f normal = Eigen::Vector3f::Zero();
+  const auto radius = static_cast<float>(config_.radius);
+  const float r2 = radius * radius;
+  for (int k = 0; k < slices_; ++k) {
+    const Eigen::Vector3f d = c - slice_origin_[k];
+    const float range = d.norm();
+    if (range <= radius + slice_half_) continue;  // a ray this close to its start: too near to judge
+    // Seen from the slice's origin, a ray passing within `radius` of c and starting within
+    // slice_half_ of that origin points within (radius + slice_half_) / (range − slice_half_)
+    // of c's direction where it passes c, and no farther out beyond it.
+    const float angle = (radius + slice_half_) / (range - slice_half_);
+    const Pixel pc = pixel_of(d);
+    const int w = std::min(kMaxWindow, static_cast<int>(std::ceil(angle * kPixelsPerRad)));
+    const int e_lo = std::max(0, pc.e - w), e_hi = std::min(kElevationPixels - 1, pc.e + w);
+    const int wa = std::min(kAzimuthPixels / 2, static_cast<int>(std::ceil(static_cast<float>(w) * inv_cos_rows(e_lo, e_hi))));
+    const std::uint32_t* start = start_.data() + static_cast<std::size_t>(k) * kPixels;
+    for (int e = e_lo; e <= e_hi; ++e) {
+      const int row = e * kAzimuthPixels;
+      for (int da = -wa; da <= wa; ++da) {
+        const int q = row + (pc.a + da + kAzimuthPixels) % kAzimuthPixels;
+        for (std::uint32_t r = start[q]; r < start[q + 1]; ++r) {
+          const Ray& ray = rays_[r];
+          const Eigen::Vector3f oc = c - ray.o;
+          const float s = oc.dot(ray.u);
+          if (s > 0.0f && s < ray.s_max && oc.squaredNorm() - s * s < r2 && steep_enough(c, ray.u, map, plane_state, normal)) {
+            return true;
+          }
+        }
+      }
+    }
+  }
+  return false;
+}
+
+const std::vector<Eigen::Vector3f>& FreeSpaceCarver::carve(double t, const std::vector<Eigen::Vector3f>& ends,
+                                                           const std::vector<Eigen::Vector3f>& origins,
+                                                           const SpatialIndex& map) {
+  carved_.clear();
+  while (!young_.empty() && young_.front().t < t - config_.probation_s) young_.pop_front();
+  if (young_.empty() || ends.empty() || origins.size() != ends.size()) return carved_;
+  note_hits(t, ends);
+  bin_rays(ends, origins);
+  // Every stride-th young point from a phase that turns with each scan: each is tested every
+  // stride scans when there are more than max_tests.
+  const std::size_t stride = std::max<std::size_t>(1, (young_.size() + config_.max_tests - 1) / config_.max_tests);
+  const std::size_t phase = scans_++ % stride;
+  std::size_t kept = 0;
+  for (std::size_t j = 0; j < young_.size(); ++j) {
+    const Young& y = young_[j];
+    const Hits& cell = cells_[y.cell];
+    if (cell.last - cell.first >= config_.release_s) {
+      ++released_;  // hit again and again: a surface that stays
+      continue;
+    }
+    if (j % stride == phase && carves(y.p, map)) {
+      carved_.push_back(y.p);
+    } else {
+      young_[kept++] = y;
+    }
+  }
+  young_.resize(kept);
+  return carved_;
+}
+
+}  // namespace fuse
