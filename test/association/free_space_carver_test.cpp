@@ -118,6 +118,20 @@ TEST(FreeSpaceCarver, ASurfaceHitAgainLeavesProbationAndOldPointsAreSafe) {
   EXPECT_EQ(carver.on_probation(), 0u);
 }
 
+// Scans that carve nothing (a pose not trusted) still age the points: probation ends on time.
+TEST(FreeSpaceCarver, ProbationEndsWithoutCarvingScans) {
+  CarveConfig cfg;
+  cfg.probation_s = 2.0;
+  FreeSpaceCarver carver(cfg);
+  carver.add(0.0, {Eigen::Vector3f(1, 2, 3), Eigen::Vector3f(4, 5, 6)});
+  carver.add(1.0, {Eigen::Vector3f(7, 8, 9)});
+  EXPECT_EQ(carver.on_probation(), 3u);
+  carver.add(2.5, {});
+  EXPECT_EQ(carver.on_probation(), 1u);
+  carver.add(3.5, {});
+  EXPECT_EQ(carver.on_probation(), 0u);
+}
+
 // At most max_tests young points are tested per scan, in turn: 100 carvable points with a
 // budget of 10 are carved 10 per scan, all of them within 10 scans.
 TEST(FreeSpaceCarver, WorkPerScanIsBoundedAndEveryPointGetsItsTurn) {

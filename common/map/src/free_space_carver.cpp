@@ -66,7 +66,24 @@ std::uint64_t FreeSpaceCarver::cell_of(const Eigen::Vector3f& p) const {
   return c(p.x()) | (c(p.y()) << 21) | (c(p.z()) << 42);
 }
 
+void FreeSpaceCarver::expire(double t) {
+  while (!young_.empty() && young_.front().t < t - config_.probation_s) young_.pop_front();
+  // A cell is last hit no earlier than its youngest point was inserted: one not hit for
+  // probation_s holds no young point any more. Swept that often.
+  if (t < swept_t_ + config_.probation_s) return;
+  swept_t_ = t;
+  for (auto it = cell_index_.begin(); it != cell_index_.end();) {
+    if (cells_[it->second].last < t - config_.probation_s) {
+      free_cells_.push_back(it->second);
+      it = cell_index_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+}
+
 void FreeSpaceCarver::add(double t, const std::vector<Eigen::Vector3f>& inserted) {
+  expire(t);  // scans that carve nothing (untrusted) still age the points
   for (const Eigen::Vector3f& p : inserted) {
     const std::uint64_t key = cell_of(p);
     auto [it, fresh] = cell_index_.try_emplace(key, 0);
@@ -79,6 +96,8 @@ void FreeSpaceCarver::add(double t, const std::vector<Eigen::Vector3f>& inserted
         free_cells_.pop_back();
         cells_[it->second] = {key, t, t};
       }
+    } else {
+      cells_[it->second].last = std::max(cells_[it->second].last, t);  // seen there again
     }
     young_.push_back({p, t, it->second});
   }
@@ -88,18 +107,6 @@ void FreeSpaceCarver::note_hits(double t, const std::vector<Eigen::Vector3f>& en
   for (const Eigen::Vector3f& p : ends) {
     const auto it = cell_index_.find(cell_of(p));
     if (it != cell_index_.end()) cells_[it->second].last = std::max(cells_[it->second].last, t);
-  }
-  // A cell is last hit no earlier than its youngest point was inserted: one not hit for
-  // probation_s holds no young point any more. Swept that often.
-  if (t < swept_t_ + config_.probation_s) return;
-  swept_t_ = t;
-  for (auto it = cell_index_.begin(); it != cell_index_.end();) {
-    if (cells_[it->second].last < t - config_.probation_s) {
-      free_cells_.push_back(it->second);
-      it = cell_index_.erase(it);
-    } else {
-      ++it;
-    }
   }
 }
 
@@ -205,7 +212,7 @@ const std::vector<Eigen::Vector3f>& FreeSpaceCarver::carve(double t, const std::
                                                            const std::vector<Eigen::Vector3f>& origins,
                                                            const SpatialIndex& map) {
   carved_.clear();
-  while (!young_.empty() && young_.front().t < t - config_.probation_s) young_.pop_front();
+  expire(t);
   if (young_.empty() || ends.empty() || origins.size() != ends.size()) return carved_;
   note_hits(t, ends);
   bin_rays(ends, origins);

@@ -14,7 +14,6 @@ constexpr double kMinConfirmCell = 0.05, kMaxConfirmCell = 10.0;
 constexpr int kKeyBits = 21;
 constexpr std::int64_t kKeyOffset = std::int64_t{1} << (kKeyBits - 1);
 constexpr std::uint64_t kKeyMask = (std::uint64_t{1} << kKeyBits) - 1;
-
 }  // namespace
 
 void MapPolicyConfig::load(ConfigNode& node) {

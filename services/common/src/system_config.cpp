@@ -165,6 +165,11 @@ void SystemConfig::load(ConfigNode& root) {
   load_section(root, "health", health);
   load_section(root, "viz", viz);
   load_section(root, "ros2", ros2);
+  // Free-space carving needs each ray's origin, which observations do not carry: the map server
+  // cannot carve, and a fuse-update that carved its replica would drift from the map it serves.
+  root.check(estimator.map.carve_s == 0.0, "estimator.map.carve_s",
+             "must be 0 for the services: free-space carving runs in fuse-run only (the map server's "
+             "observations carry no ray origins)");
   root.finish();
 }
 

@@ -79,6 +79,8 @@ class FreeSpaceCarver {
     float s_max;  ///< carves only points projecting onto (0, s_max)
   };
   std::uint64_t cell_of(const Eigen::Vector3f& p) const;
+  /// Ends the probation of points older than probation_s at t; frees cells no longer hit.
+  void expire(double t);
   void note_hits(double t, const std::vector<Eigen::Vector3f>& ends);
   void bin_rays(const std::vector<Eigen::Vector3f>& ends, const std::vector<Eigen::Vector3f>& origins);
   bool carves(const Eigen::Vector3f& c, const SpatialIndex& map) const;
