@@ -2,7 +2,7 @@
 //
 //   fuse-run --config FILE --input INPUT --out DIR [--set key=value]... [--log-level LEVEL]
 //            [--load-map SNAPSHOT [--initial-pose X Y Z YAW_DEG [--pose-std-xy M] [--pose-std-yaw DEG]]]
-//            [--save-map SNAPSHOT]                            (--help lists them; --version)
+//            [--save-map SNAPSHOT] [--extrinsic-from input|config]  (--help lists them; --version)
 //
 // With --load-map the run finds its start in the map by itself (estimator.global_localization;
 // around --initial-pose when given), and writes its poses in the map's frame once found.
@@ -55,6 +55,12 @@ int main(int argc, char** argv) {
   app->add_option("--log-level", level, "trace|debug|info|warn|error (default info)")->type_name("L");
   app->add_option("--load-map", load_map, "start from this map snapshot")->type_name("SNAPSHOT");
   app->add_option("--save-map", save_map, "write the map to this snapshot at the end")->type_name("SNAPSHOT");
+  std::string extrinsic_from = "input";
+  app->add_option("--extrinsic-from", extrinsic_from,
+                  "input (default): a recording's calibration or a sequence's calib.yaml overrides the config's extrinsic; "
+                  "config: the config's extrinsic is used always")
+      ->type_name("input|config")
+      ->check(CLI::IsMember({"input", "config"}));
   auto* pose_opt = app->add_option("--initial-pose", initial_pose,
                                    "with --load-map: the IMU's pose in the map at the start (metres, heading in degrees "
                                    "about z; roll and pitch come from gravity); it is checked against the map, and refused "
@@ -83,6 +89,7 @@ int main(int argc, char** argv) {
   }
   config.load_map = load_map;
   config.save_map = save_map;
+  config.extrinsic_from = extrinsic_from;
   if (!initial_pose.empty()) {
     if (initial_pose.size() != 4) return fuse::cli::usage_error(*app, "--initial-pose: expected four numbers: X Y Z YAW_DEG");
     if (load_map.empty()) return fuse::cli::usage_error(*app, "--initial-pose: needs --load-map (a pose in which map?)");

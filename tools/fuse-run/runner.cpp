@@ -48,7 +48,8 @@ void write_diagnostics(const std::string& path, const std::vector<ScanReport>& r
   std::ofstream f(path);
   f << "scan,t,updated,constraints,rejected_no_neighbors,rejected_not_planar,rejected_screening,"
        "min_eig_translation,min_eig_rotation,min_eig_ratio,min_gamma,iterations,converged,map_points,map_inserted,map_pending,map_carved,"
-       "recovery,fit,match_fit,prior_position_std,prior_rotation_std,time_offset_s,tracking\n";
+       "recovery,fit,match_fit,prior_position_std,prior_rotation_std,time_offset_s,tracking,"
+       "ext_rx_deg,ext_ry_deg,ext_rz_deg,ext_x,ext_y,ext_z,ext_held\n";
   for (std::size_t i = 0; i < reports.size(); ++i) {
     const auto& r = reports[i];
     f << i << ',' << std::fixed << std::setprecision(6) << r.t << ',' << r.updated << ',' << r.constraints << ','
@@ -56,7 +57,10 @@ void write_diagnostics(const std::string& path, const std::vector<ScanReport>& r
       << std::scientific << std::setprecision(4) << r.min_eig_translation << ',' << r.min_eig_rotation << ',' << r.min_eig_ratio << ','
       << std::fixed << r.min_gamma << ',' << r.iterations << ',' << r.converged << ',' << r.map_points << ','
       << r.map_inserted << ',' << r.map_pending << ',' << r.map_carved << ',' << r.recovery << ',' << r.fit << ',' << r.match_fit << ',' << r.prior_position_std
-      << ',' << r.prior_rotation_std << ',' << std::setprecision(6) << r.time_offset << ',' << to_string(status[i]) << '\n';
+      << ',' << r.prior_rotation_std << ',' << std::setprecision(6) << r.time_offset << ',' << to_string(status[i]);
+    const Eigen::Vector3d rv = r.extrinsic_rotation * (180.0 / M_PI);
+    f << ',' << rv.x() << ',' << rv.y() << ',' << rv.z() << ',' << r.extrinsic_translation.x() << ','
+      << r.extrinsic_translation.y() << ',' << r.extrinsic_translation.z() << ',' << r.extrinsic_held << '\n';
   }
 }
 
@@ -140,7 +144,11 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
   // on the machine's speed. fuse-run waits for each search instead (a live system locates a
   // search's duration of data later).
   config.estimator.global_localization.blocking = true;
-  if (auto T = source->T_imu_lidar()) {
+  if (auto T = source->T_imu_lidar(); T && config.extrinsic_from == "config") {
+    log->info("extrinsic T_imu_lidar from the config (--extrinsic-from config), not the input's: t = [{:.4f} {:.4f} {:.4f}]",
+              config.estimator.T_imu_lidar.translation().x(), config.estimator.T_imu_lidar.translation().y(),
+              config.estimator.T_imu_lidar.translation().z());
+  } else if (T) {
     config.estimator.T_imu_lidar = *T;
     log->info("extrinsic T_imu_lidar from the input overrides the config: t = [{:.4f} {:.4f} {:.4f}]",
               T->translation().x(), T->translation().y(), T->translation().z());

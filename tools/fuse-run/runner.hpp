@@ -18,6 +18,9 @@ struct RunnerConfig {
   /// Map files (command line, not YAML): a snapshot to start from (e.g. to localize on it with
   /// estimator.map.mode=localization) and one to write the final map to. Empty: none.
   std::string load_map, save_map;
+  /// The extrinsic T_imu_lidar: "input" (a recording's calibration record or a sequence's
+  /// calib.yaml, when there is one, over the config's) or "config" (the config's, always).
+  std::string extrinsic_from = "input";
   /// The IMU's pose in the loaded map at the start, with its σ (--initial-pose): the search for
   /// the start is confined around it. Without it, estimator.global_localization decides.
   std::optional<InitialPose> initial_pose;

@@ -102,6 +102,7 @@ void EstimatorConfig::load(ConfigNode& node) {
     T_imu_lidar.linear() = Eigen::Quaterniond(q(3), q(0), q(1), q(2)).normalized().toRotationMatrix();
     T_imu_lidar.translation() = t;
   }
+  load_section(node, "extrinsic_excitation", extrinsic_excitation);
   load_section(node, "init", init);
   load_section(node, "imu_noise", imu);
   load_section(node, "history", history);

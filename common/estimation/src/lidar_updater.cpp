@@ -56,6 +56,7 @@ LidarUpdater::LidarUpdater(const EstimatorConfig& config)
       recovery_associator_(without_screening(config.association)),
       recovery_measurement_(config.measurement),
       voxel_size_(static_cast<float>(config.preprocess.voxel_size)),
+      excitation_(config.extrinsic_excitation),
       counters_(logger("estimator")) {
   config_.measurement.extrinsic_jacobian = config.estimate_extrinsic;
   recovery_measurement_.extrinsic_jacobian = config.estimate_extrinsic;
@@ -139,8 +140,24 @@ UpdateResult LidarUpdater::update(MeasurementModel& model, StateHistory& history
     prior.P.row(Idx::kTimeOffset).setZero();
     prior.P.col(Idx::kTimeOffset).setZero();
   }
+  // The extrinsic, when estimated, is held while the motion does not turn about every axis: its
+  // rows and columns out of the update, its covariance kept for when the motion does.
+  const bool hold_ext = config_.estimate_extrinsic && !excitation_.excited();
+  Eigen::Matrix<double, 6, 6> ext_P;
+  if (hold_ext) {
+    counters_.count("extrinsic_held_weak_excitation",
+                    fmt::format("scan at t={:.6f}: the extrinsic is held, the motion turns too little about its weakest axis "
+                                "({:.2f} deg/s RMS over the last {} s; estimator.extrinsic_excitation.min_rate_deg_s = {})",
+                                t, excitation_.weakest_rate() * 180.0 / M_PI, config_.extrinsic_excitation.window_s,
+                                config_.extrinsic_excitation.min_rate_deg_s));
+    ext_P = prior.P.block<6, 6>(Idx::kExtRot, Idx::kExtRot);
+    prior.P.middleRows<6>(Idx::kExtRot).setZero();
+    prior.P.middleCols<6>(Idx::kExtRot).setZero();
+  }
+  last_update_held_extrinsic_ = hold_ext;
   UpdateResult result = backend.update(prior.x, prior.P, model);
   if (hold_td) prior.P(Idx::kTimeOffset, Idx::kTimeOffset) = td_var;
+  if (hold_ext) prior.P.block<6, 6>(Idx::kExtRot, Idx::kExtRot) = ext_P;
   const double bound = config_.time_offset.max_s;
   if (result.updated && std::abs(prior.x.td) > bound) {
     counters_.count("time_offset_at_bound",
@@ -267,6 +284,10 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
   // 4. Map policy on the world-frame points at the posterior.
   t_stage = Clock::now();
   T_WL_ = x.T_WI() * x.T_IL();
+  report.extrinsic_rotation = so3::Log(x.R_IL);
+  report.extrinsic_translation = x.p_IL;
+  report.extrinsic_held = report.updated && last_update_held_extrinsic_;
+  if (report.updated) excitation_.add(scan.t_end, x.R);
   const Eigen::Isometry3d& T_WL = T_WL_;
   const Eigen::Matrix3f R = T_WL.linear().cast<float>();
   const Eigen::Vector3f t = T_WL.translation().cast<float>();
@@ -436,9 +457,12 @@ UpdateResult LidarUpdater::relocalise(StateHistory& history, double t, ScanRepor
     const double psi = 2.0 * M_PI * k / K;
     NavState x = turned(prior.x, gap, psi > M_PI ? psi - 2.0 * M_PI : psi, up);
     StateCovariance P = prior.P;
-    // A re-localisation does not move the time offset: what it corrects is the gap's, not timing.
+    // A re-localisation does not move the time offset or the extrinsic: what it corrects is the
+    // gap's, not timing or calibration.
     P.row(Idx::kTimeOffset).setZero();
     P.col(Idx::kTimeOffset).setZero();
+    P.middleRows<6>(Idx::kExtRot).setZero();
+    P.middleCols<6>(Idx::kExtRot).setZero();
     PointToPlaneModel model(recovery_measurement_, points_L_, *map_, recovery_associator_, constraints_);
     const UpdateResult result = recovery_backend_->update(x, P, model);
     report.ms_association += model.association_ms();
@@ -494,6 +518,7 @@ UpdateResult LidarUpdater::relocalise(StateHistory& history, double t, ScanRepor
                                                     " deg off the prior's: a better fit");
   }
   best_P(Idx::kTimeOffset, Idx::kTimeOffset) = prior.P(Idx::kTimeOffset, Idx::kTimeOffset);
+  best_P.block<6, 6>(Idx::kExtRot, Idx::kExtRot) = prior.P.block<6, 6>(Idx::kExtRot, Idx::kExtRot);
   if (best.updated) {
     history.correct(t, best_x, best_P);
     relocalised_at_ = t;

@@ -10,6 +10,7 @@
 #include "fuse/association/spatial_index.hpp"
 #include "fuse/core/config.hpp"
 #include "fuse/core/time_gate.hpp"
+#include "fuse/estimation/excitation_monitor.hpp"
 #include "fuse/estimation/global_localizer.hpp"
 #include "fuse/estimation/imu_propagation.hpp"
 #include "fuse/estimation/point_to_plane_model.hpp"
@@ -178,6 +179,9 @@ struct TimeOffsetConfig {
 struct EstimatorConfig {
   double gravity_magnitude = 9.81;
   bool estimate_extrinsic = false;
+  /// With estimate_extrinsic: the extrinsic is held while the motion does not turn about every
+  /// axis (excitation_monitor.hpp).
+  ExcitationConfig extrinsic_excitation;
   bool estimate_gravity = true;   ///< gravity direction in the map frame (2-D, on S²); false: fixed at initialisation
   Eigen::Isometry3d T_imu_lidar = Eigen::Isometry3d::Identity();
   StaticInitConfig init;

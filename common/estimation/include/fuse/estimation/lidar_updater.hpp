@@ -22,6 +22,7 @@
 #include "fuse/core/counters.hpp"
 #include "fuse/core/types.hpp"
 #include "fuse/estimation/deskew.hpp"
+#include "fuse/estimation/excitation_monitor.hpp"
 #include "fuse/estimation/estimator_config.hpp"
 #include "fuse/estimation/scan_report.hpp"
 #include "fuse/estimation/state_history.hpp"
@@ -110,6 +111,8 @@ class LidarUpdater {
   int scans_without_constraints_ = 0;
   /// When the last re-localisation was taken: the time offset is held for a while after it.
   double relocalised_at_ = -std::numeric_limits<double>::infinity();
+  ExcitationMonitor excitation_;  ///< whether the motion lets the extrinsic be estimated
+  bool last_update_held_extrinsic_ = false;
   /// World position of the last re-localised scan while its map hold lasts (recovery.map_hold_distance).
   std::optional<Eigen::Vector3d> hold_from_;
   Counters counters_;

@@ -2,6 +2,7 @@
 // diagnostics.csv, and what a TrackingMonitor judges the track by.
 #pragma once
 
+#include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
 
@@ -36,6 +37,11 @@ struct ScanReport {
   /// New points not mapped yet: their place has not persisted for map.confirm_s (a moving object,
   /// or space seen for the first time).
   std::size_t map_pending = 0;
+  /// The extrinsic T_imu_lidar after this scan: rotation vector (rad) and translation (m), and
+  /// whether its estimate was held for weak excitation (estimator.extrinsic_excitation).
+  Eigen::Vector3d extrinsic_rotation = Eigen::Vector3d::Zero();
+  Eigen::Vector3d extrinsic_translation = Eigen::Vector3d::Zero();
+  bool extrinsic_held = false;
   std::size_t map_carved = 0;   ///< map points a ray of this scan showed empty (free-space carving)
   /// Map hold: re-localised, or within recovery.map_hold_distance after it; only the points
   /// within recovery.map_hold_radius of the sensor were offered to the map.
