@@ -10,6 +10,8 @@
 
 #include "fuse/map/map_policy.hpp"
 
+#include "../core/config_checks.hpp"
+
 namespace fuse {
 namespace {
 
@@ -178,18 +180,9 @@ TEST(FreeSpaceCarver, TheMappingPolicyCarvesOnlyWithTheRaysOrigins) {
 }
 
 TEST(FreeSpaceCarver, BadCarveKeysStopWithTheKeyNamed) {
-  for (const auto& [key, value] : std::vector<std::pair<std::string, std::string>>{
-           {"carve_s", "-1"}, {"carve_radius", "0"}, {"carve_beyond", "2"}, {"carve_margin", "-0.1"},
-           {"carve_tests", "0"}, {"carve_release_s", "0"}, {"carve_min_incidence_deg", "90"}}) {
-    ConfigNode node = ConfigNode::from_string(key + ": " + value + "\n");
-    MapPolicyConfig cfg;
-    try {
-      cfg.load(node);
-      ADD_FAILURE() << key << " = " << value << " accepted";
-    } catch (const ConfigError& e) {
-      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
-    }
-  }
+  expect_refused_naming_the_key<MapPolicyConfig>({"carve_s: -1\n", "carve_radius: 0\n", "carve_beyond: 2\n",
+                                                   "carve_margin: -0.1\n", "carve_tests: 0\n", "carve_release_s: 0\n",
+                                                   "carve_min_incidence_deg: 90\n"});
 }
 
 }  // namespace
