@@ -87,6 +87,13 @@ Scan make_scan() {
   return s;
 }
 
+/// Indices of every point of the scan.
+std::vector<std::uint32_t> all_points(const LidarScan& scan) {
+  std::vector<std::uint32_t> all(scan.points.size());
+  for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
+  return all;
+}
+
 double max_error(const std::vector<Eigen::Vector3f>& points, const std::vector<Eigen::Vector3d>& truth) {
   double e = 0.0;
   for (std::size_t i = 0; i < points.size(); ++i) e = std::max(e, (points[i].cast<double>() - truth[i]).norm());
@@ -98,8 +105,7 @@ TEST(Deskew, RecoversPointsAtScanEnd) {
   const Scan s = make_scan();
   Deskewer deskewer;
   ASSERT_TRUE(deskewer.prepare(h, s.scan.t_start, s.scan.t_end));
-  std::vector<std::uint32_t> all(s.scan.points.size());
-  for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
+  const std::vector<std::uint32_t> all = all_points(s.scan);
   std::vector<Eigen::Vector3f> out;
   deskewer.apply(s.scan, all, extrinsic(), out);
   ASSERT_EQ(out.size(), all.size());
@@ -121,8 +127,7 @@ TEST(Deskew, GivesWhereEachRayStarted) {
   const Scan s = make_scan();
   Deskewer deskewer;
   ASSERT_TRUE(deskewer.prepare(h, s.scan.t_start, s.scan.t_end));
-  std::vector<std::uint32_t> all(s.scan.points.size());
-  for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
+  const std::vector<std::uint32_t> all = all_points(s.scan);
   std::vector<Eigen::Vector3f> out, origins;
   deskewer.apply(s.scan, all, extrinsic(), out, &origins);
   ASSERT_EQ(origins.size(), all.size());

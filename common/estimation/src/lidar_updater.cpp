@@ -287,7 +287,7 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
   report.extrinsic_rotation = so3::Log(x.R_IL);
   report.extrinsic_translation = x.p_IL;
   report.extrinsic_held = report.updated && last_update_held_extrinsic_;
-  if (report.updated) excitation_.add(scan.t_end, x.R);
+  if (report.updated && config_.estimate_extrinsic) excitation_.add(scan.t_end, x.R);
   const Eigen::Isometry3d& T_WL = T_WL_;
   const Eigen::Matrix3f R = T_WL.linear().cast<float>();
   const Eigen::Vector3f t = T_WL.translation().cast<float>();
