@@ -34,12 +34,12 @@ constexpr std::size_t kPrefetchEvents = 400;
 
 void write_timing(const std::string& path, const std::vector<ScanReport>& reports) {
   std::ofstream f(path);
-  f << "scan,t,points_in,points_kept,deskew_ms,association_ms,update_ms,map_ms,total_ms,cpu_ms,page_faults\n" << std::fixed;
+  f << "scan,t,points_in,points_kept,deskew_ms,association_ms,update_ms,map_ms,total_ms,cpu_ms,page_faults,map_searches\n" << std::fixed;
   for (std::size_t i = 0; i < reports.size(); ++i) {
     const auto& r = reports[i];
     f << i << ',' << std::setprecision(6) << r.t << ',' << r.points_in << ',' << r.points_kept << ','
       << std::setprecision(4) << r.ms_deskew << ',' << r.ms_association << ',' << r.ms_update << ',' << r.ms_map << ','
-      << r.ms_total << ',' << r.ms_cpu << ',' << r.page_faults << '\n';
+      << r.ms_total << ',' << r.ms_cpu << ',' << r.page_faults << ',' << r.map_searches << '\n';
   }
 }
 

@@ -1,6 +1,7 @@
 #include "fuse/association/ivox.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <memory>
 #include <new>
@@ -222,16 +223,37 @@ void IVox::knn(const Eigen::Vector3f& q, int k, float max_dist, Neighbors& out) 
   float bound2 = max_dist * max_dist;  // squared radius that can still improve the result
   const Key center = key_of(q);
   const Eigen::Vector3f center_min = center.cast<float>() * voxel_size_;
-  for (const Key& offset : offsets_) {
+  // The neighbourhood's voxels lie scattered over a table far larger than the caches, so each
+  // lookup is a cache miss. Asking for all of them first lets the misses overlap (memory-level
+  // parallelism) instead of following one another: the slots, then the voxel records, then
+  // their points.
+  const std::size_t n = offsets_.size();
+  const std::size_t mask = num_slots_ - 1;
+  std::array<std::size_t, kMaxOffsets> slot;
+  for (std::size_t i = 0; i < n; ++i) {
+    slot[i] = hash_key(center + offsets_[i]) & mask;
+    __builtin_prefetch(&slots_[slot[i]]);
+  }
+  std::array<std::int32_t, kMaxOffsets> id;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Key key = center + offsets_[i];
+    std::size_t s = slot[i];
+    while (slots_[s].id != 0 && slots_[s].key != key) s = (s + 1) & mask;
+    id[i] = slots_[s].id - 1;
+    if (id[i] >= 0) __builtin_prefetch(&voxels_[id[i]]);
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (id[i] >= 0) __builtin_prefetch(voxels_[id[i]].points.data());
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (id[i] < 0) continue;
     // Skip a voxel whose box is farther from q than the current k-th neighbour (or max_dist).
-    const Eigen::Vector3f box_min = center_min + offset.cast<float>() * voxel_size_;
+    const Eigen::Vector3f box_min = center_min + offsets_[i].cast<float>() * voxel_size_;
     const Eigen::Vector3f gap =
         (box_min - q).cwiseMax(q - box_min - Eigen::Vector3f::Constant(voxel_size_)).cwiseMax(0.0f);
     if (gap.squaredNorm() > bound2) continue;
-    const std::int32_t v = find(center + offset);
-    if (v < 0) continue;
     // Keep the k best in a small sorted array (insertion sort: k ≤ 16).
-    for (const Eigen::Vector3f& p : voxels_[v].points) {
+    for (const Eigen::Vector3f& p : voxels_[id[i]].points) {
       const float d2 = (p - q).squaredNorm();
       if (d2 > bound2) continue;
       int pos = out.count < k ? out.count++ : k - 1;

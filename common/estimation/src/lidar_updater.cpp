@@ -262,6 +262,7 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
       PointToPlaneModel model(config_.measurement, points_L_, *map_, associator_, constraints_);
       result = update(model, history, scan.t_end);
       report.ms_association = model.association_ms();
+      report.map_searches = model.searches();
     }
     x = history.query(scan.t_end).x;
     report.time_offset = x.td;
@@ -466,6 +467,7 @@ UpdateResult LidarUpdater::relocalise(StateHistory& history, double t, ScanRepor
     PointToPlaneModel model(recovery_measurement_, points_L_, *map_, recovery_associator_, constraints_);
     const UpdateResult result = recovery_backend_->update(x, P, model);
     report.ms_association += model.association_ms();
+    report.map_searches += model.searches();
     double fit = 0.0;
     const double cost = result.updated ? log_posterior_cost(x, fit) : std::numeric_limits<double>::infinity();
     logger("estimator")->debug("re-localisation at t={:.6f} from heading {:+.0f} deg: fit {:.3f}, cost {:.1f}, {} iterations{}",

@@ -45,6 +45,7 @@ bool PointToPlaneModel::linearize(const NavState& x, int iteration, LinearSystem
   if (search) {
     associator_.associate(points_L_, T_WL, map_, constraints_);
     associated_ = true;
+    ++searches_;
     T_WL_associated_ = T_WL;
   } else {
     associator_.rescreen(T_WL, constraints_);

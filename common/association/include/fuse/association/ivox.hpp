@@ -42,6 +42,7 @@ class IVox final : public SpatialIndex {
 
  private:
   using Key = Eigen::Vector3i;
+  static constexpr std::size_t kMaxOffsets = 27;  ///< nearby26 and the centre
   struct Slot {
     Key key = Key::Zero();
     std::int32_t id = 0;  ///< index into voxels_ plus one; 0 = empty

@@ -46,9 +46,12 @@ class PointToPlaneModel final : public MeasurementModel {
   bool linearize(const NavState& x, int iteration, LinearSystem& out) override;
   /// Wall time spent in map association (k-nearest search + plane fits), ms.
   double association_ms() const { return association_ms_; }
+  /// Full map searches made so far (the rest of the linearisations only re-screened).
+  int searches() const { return searches_; }
 
  private:
   double association_ms_ = 0.0;
+  int searches_ = 0;
   bool associated_ = false;
   Eigen::Isometry3d T_WL_associated_ = Eigen::Isometry3d::Identity();
   Config config_;

@@ -52,6 +52,9 @@ struct ScanReport {
   /// space inherits the pose's error (see LidarUpdater::process). Zero when nothing was mapped.
   Eigen::Matrix<double, 6, 6> map_drift = Eigen::Matrix<double, 6, 6>::Zero();
   double ms_deskew = 0.0, ms_association = 0.0, ms_update = 0.0, ms_map = 0.0, ms_total = 0.0;
+  /// Full searches of the map this scan's update made (the first association and each
+  /// re-association; re-localisation counts all its hypotheses): what ms_association scales with.
+  int map_searches = 0;
   /// CPU time of the processing thread over the whole step (ms): the wall time above less what
   /// the machine spent elsewhere; the per-scan tail is judged on it.
   double ms_cpu = 0.0;
