@@ -77,12 +77,17 @@ IVox::Key IVox::key_of(const Eigen::Vector3f& p) const {
              static_cast<int>(std::floor(p.z() * inv_voxel_size_)));
 }
 
-std::size_t IVox::slot_of(const Key& key) const {
+// Inline (used in this file only): a shared library's exported members are otherwise called,
+// not inlined, and these two run 19 times per k-nearest query.
+inline std::size_t IVox::home_slot(const Key& key) const { return hash_key(key) & (num_slots_ - 1); }
+
+inline std::size_t IVox::probe(std::size_t i, const Key& key) const {
   const std::size_t mask = num_slots_ - 1;
-  std::size_t i = hash_key(key) & mask;
   while (slots_[i].id != 0 && slots_[i].key != key) i = (i + 1) & mask;
   return i;
 }
+
+std::size_t IVox::slot_of(const Key& key) const { return probe(home_slot(key), key); }
 
 std::int32_t IVox::find(const Key& key) const { return slots_[slot_of(key)].id - 1; }
 
@@ -120,7 +125,7 @@ void IVox::erase_slot(std::size_t hole) {
   // would otherwise be cut off from its home by the empty slot. No tombstones are left behind.
   const std::size_t mask = num_slots_ - 1;
   for (std::size_t j = (hole + 1) & mask; slots_[j].id != 0; j = (j + 1) & mask) {
-    const std::size_t home = hash_key(slots_[j].key) & mask;
+    const std::size_t home = home_slot(slots_[j].key);
     const bool reachable = hole <= j ? (hole < home && home <= j) : (hole < home || home <= j);
     if (reachable) continue;
     slots_[hole] = slots_[j];
@@ -228,18 +233,14 @@ void IVox::knn(const Eigen::Vector3f& q, int k, float max_dist, Neighbors& out) 
   // parallelism) instead of following one another: the slots, then the voxel records, then
   // their points.
   const std::size_t n = offsets_.size();
-  const std::size_t mask = num_slots_ - 1;
   std::array<std::size_t, kMaxOffsets> slot;
   for (std::size_t i = 0; i < n; ++i) {
-    slot[i] = hash_key(center + offsets_[i]) & mask;
+    slot[i] = home_slot(center + offsets_[i]);
     __builtin_prefetch(&slots_[slot[i]]);
   }
   std::array<std::int32_t, kMaxOffsets> id;
   for (std::size_t i = 0; i < n; ++i) {
-    const Key key = center + offsets_[i];
-    std::size_t s = slot[i];
-    while (slots_[s].id != 0 && slots_[s].key != key) s = (s + 1) & mask;
-    id[i] = slots_[s].id - 1;
+    id[i] = slots_[probe(slot[i], center + offsets_[i])].id - 1;
     if (id[i] >= 0) __builtin_prefetch(&voxels_[id[i]]);
   }
   for (std::size_t i = 0; i < n; ++i) {

@@ -58,6 +58,8 @@ class IVox final : public SpatialIndex {
   };
 
   Key key_of(const Eigen::Vector3f& p) const;
+  std::size_t home_slot(const Key& key) const;  ///< where key's probe run starts
+  std::size_t probe(std::size_t home, const Key& key) const;  ///< linear probing from home
   std::size_t slot_of(const Key& key) const;  ///< the slot holding key, or the empty slot where it goes
   std::int32_t find(const Key& key) const;    ///< voxel index, -1 if absent
   void allocate_table(std::size_t capacity);  ///< empty slots
