@@ -109,6 +109,55 @@ TEST(IVox, TheTableIsSizedOnceForItsCapacity) {
   EXPECT_EQ(ivox.num_slots(), slots);
 }
 
+TEST(IVox, PointsSurviveMovesToLargerChunks) {
+  // Voxels filled a few points per insert move through chunks of 8, 16, 32 and 64 points: every
+  // point inserted stays stored and found; erasing and trimming from grown voxels works, and the
+  // voxels made after a trim get chunks again.
+  SpatialIndexConfig cfg = small_config(1000);
+  cfg.neighborhood = "nearby26";
+  IVox ivox(cfg);
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::vector<Eigen::Vector3f> held;
+  for (int batch = 0; batch < 20; ++batch) {
+    std::vector<Eigen::Vector3f> points;
+    for (int voxel = 0; voxel < 4; ++voxel) {
+      for (int i = 0; i < 3; ++i) points.emplace_back(static_cast<float>(voxel) + u(rng), u(rng), u(rng));
+    }
+    ivox.insert(points);
+    held.insert(held.end(), points.begin(), points.end());
+  }
+  ASSERT_EQ(ivox.size(), held.size());  // 60 points per voxel: below the limit of 64
+  Neighbors nb;
+  for (const Eigen::Vector3f& q : held) {
+    ivox.knn(q, 16, 1.0f, nb);
+    const std::vector<float> expected = test::brute_force_knn(held, q, 16, 1.0f);
+    ASSERT_EQ(static_cast<std::size_t>(nb.count), expected.size());
+    for (int i = 0; i < nb.count; ++i) ASSERT_FLOAT_EQ(nb.dist2[i], expected[static_cast<std::size_t>(i)]);
+  }
+  // Erase every other point of voxel 0.
+  std::vector<Eigen::Vector3f> gone;
+  std::vector<Eigen::Vector3f> kept;
+  for (const Eigen::Vector3f& p : held) ((p.x() < 1.0f && gone.size() <= kept.size()) ? gone : kept).push_back(p);
+  EXPECT_EQ(ivox.erase(gone), gone.size());
+  EXPECT_EQ(ivox.size(), kept.size());
+  for (const Eigen::Vector3f& p : gone) {
+    ivox.knn(p, 1, 1.0f, nb);
+    EXPECT_TRUE(nb.count == 0 || nb.dist2[0] > 0.0f) << "erased point " << p.transpose() << " still found";
+  }
+  // Trim to voxels 0 and 1: the other two give their chunks back; voxels made next take chunks again.
+  ivox.trim(Eigen::Vector3f(1.0f, 0.5f, 0.5f), 1.0f);
+  EXPECT_EQ(ivox.num_voxels(), 2u);
+  for (int voxel = 10; voxel < 12; ++voxel) {
+    ivox.insert(std::vector<Eigen::Vector3f>(40, in_voxel(voxel)));
+    EXPECT_TRUE(has_points_near(ivox, in_voxel(voxel)));
+  }
+  EXPECT_EQ(ivox.num_voxels(), 4u);
+  std::size_t visited = 0;
+  ivox.for_each_point([&](const Eigen::Vector3f&) { ++visited; });
+  EXPECT_EQ(visited, ivox.size());
+}
+
 TEST(IVox, FullVoxelRefusesPoints) {
   SpatialIndexConfig cfg = small_config(1000);
   cfg.max_points_per_voxel = 4;

@@ -56,5 +56,19 @@ TEST(VoxelFilter, ReuseGivesTheSameResult) {
   EXPECT_EQ(a, b);
 }
 
+// A filter whose memory was reserved ahead (reserve()) filters exactly as one that grows as it
+// goes, for clouds smaller and larger than the reservation.
+TEST(VoxelFilter, ReservedFilterMatchesTheOracle) {
+  std::mt19937 rng(92);
+  VoxelFilter filter;
+  filter.reserve(2000);
+  for (int n : {50, 2000, 30000, 10}) {
+    const auto cloud = test::random_cloud(rng, n, 8.0f);
+    std::vector<std::uint32_t> kept;
+    filter.filter(cloud, static_cast<float>(kVoxel), kept);
+    EXPECT_EQ(kept, oracle_filter(cloud, kVoxel)) << "n = " << n;
+  }
+}
+
 }  // namespace
 }  // namespace fuse

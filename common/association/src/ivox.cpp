@@ -3,10 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <memory>
-#include <new>
-
-#include <sys/mman.h>
+#include <cstring>
 
 namespace fuse {
 
@@ -17,19 +14,28 @@ constexpr std::size_t kInitialSlots = 1u << 12;
 constexpr double kMaxLoad = 0.5;
 /// The largest table made up front (64 MiB).
 constexpr std::size_t kMaxPresizedSlots = 1u << 22;
-/// A transparent huge page (x86-64, arm64 with 4 KiB base pages).
-constexpr std::size_t kHugePage = std::size_t{2} << 20;
-/// Points a new voxel has room for before its first reallocation.
+/// Points a new voxel has room for before it moves to a larger chunk.
 constexpr std::size_t kFirstCapacity = 8;
 
-/// Slots for max_voxels at kMaxLoad; an index bounded beyond kMaxPresizedSlots (the map server's,
-/// which never evicts) starts small and grows as it fills instead.
+/// An index bounded beyond kMaxPresizedSlots (the map server's, which never evicts) is not sized
+/// up front: it starts small and grows as it fills.
+bool sized_up_front(std::size_t max_voxels) {
+  return static_cast<double>(max_voxels) / kMaxLoad <= static_cast<double>(kMaxPresizedSlots);
+}
+
+/// Slots for max_voxels at kMaxLoad.
 std::size_t presized_slots(std::size_t max_voxels) {
-  const double wanted = static_cast<double>(max_voxels) / kMaxLoad;
-  if (wanted > static_cast<double>(kMaxPresizedSlots)) return kInitialSlots;
+  if (!sized_up_front(max_voxels)) return kInitialSlots;
   std::size_t n = kInitialSlots;
-  while (static_cast<double>(n) < wanted) n *= 2;
+  while (static_cast<double>(n) < static_cast<double>(max_voxels) / kMaxLoad) n *= 2;
   return n;
+}
+
+/// Points whose memory is faulted in when the index is made: a first chunk for every voxel of an
+/// index sized up front (its records are faulted in with the same budget, by their reserve()).
+/// An index too large for that grows its pool as it fills.
+std::size_t presized_points(std::size_t max_voxels) {
+  return sized_up_front(max_voxels) ? max_voxels * kFirstCapacity : 0;
 }
 
 std::vector<Eigen::Vector3i> neighborhood_offsets(const std::string& name) {
@@ -66,9 +72,11 @@ std::uint64_t hash_key(const Eigen::Vector3i& k) {
 
 IVox::IVox(const SpatialIndexConfig& config)
     : config_(config), voxel_size_(static_cast<float>(config.voxel_size)),
-      inv_voxel_size_(static_cast<float>(1.0 / config.voxel_size)), offsets_(neighborhood_offsets(config.neighborhood)) {
+      inv_voxel_size_(static_cast<float>(1.0 / config.voxel_size)), offsets_(neighborhood_offsets(config.neighborhood)),
+      pool_(config.max_points_per_voxel, presized_points(config.max_voxels)) {
   allocate_table(presized_slots(config.max_voxels));
-  // Address space only: records are made (and their pages touched) a scan's few thousand at a time.
+  // The records of a full index, faulted in now (HugePageAllocator); one not sized up front
+  // reserves for its first table and grows with it.
   voxels_.reserve(std::min(config.max_voxels, static_cast<std::size_t>(kMaxLoad * static_cast<double>(num_slots_))));
 }
 
@@ -92,27 +100,19 @@ std::size_t IVox::slot_of(const Key& key) const { return probe(home_slot(key), k
 std::int32_t IVox::find(const Key& key) const { return slots_[slot_of(key)].id - 1; }
 
 void IVox::allocate_table(std::size_t capacity) {
-  // A large table in transparent huge pages where the kernel offers them (madvise mode): writing
-  // it takes a few faults instead of one per 4 KiB page (on a virtual machine each costs ~10 µs),
-  // and random lookups into it miss the TLB far less.
-  const std::size_t bytes = capacity * sizeof(Slot);
-  void* raw = nullptr;
-  if (bytes >= kHugePage) {
-    raw = std::aligned_alloc(kHugePage, (bytes + kHugePage - 1) / kHugePage * kHugePage);
-    if (raw != nullptr) ::madvise(raw, bytes, MADV_HUGEPAGE);  // a hint: refused, 4 KiB pages serve
-  } else {
-    raw = std::malloc(bytes);
-  }
-  if (raw == nullptr) throw std::bad_alloc();
-  std::uninitialized_fill_n(static_cast<Slot*>(raw), capacity, Slot{});
-  slots_.reset(static_cast<Slot*>(raw));
+  // Written whole now (Slot{} is all zeros, as the fresh mapping is): its pages are faulted in
+  // here, when the index is made, not by the first scans' lookups.
+  HugePageRegion table(capacity * sizeof(Slot));
+  slots_ = reinterpret_cast<Slot*>(table.data());
+  std::uninitialized_fill_n(slots_, capacity, Slot{});
+  table_ = std::move(table);
   num_slots_ = capacity;
 }
 
 void IVox::rebuild_table(std::size_t capacity) {
   allocate_table(capacity);
   for (std::size_t v = 0; v < voxels_.size(); ++v) {
-    if (voxels_[v].points.empty()) continue;
+    if (voxels_[v].count == 0) continue;
     Slot& slot = slots_[slot_of(voxels_[v].key)];
     slot.key = voxels_[v].key;
     slot.id = static_cast<std::int32_t>(v) + 1;
@@ -154,8 +154,8 @@ void IVox::free_voxel(std::int32_t v) {
   Voxel& vox = voxels_[v];
   unlink(v);
   erase_slot(slot_of(vox.key));
-  num_points_ -= vox.points.size();
-  vox.points.clear();  // the record keeps its buffer for the voxel made next in its place
+  num_points_ -= vox.count;
+  vox.count = 0;  // the record keeps its chunk for the voxel made next in its place
   free_voxels_.push_back(v);
   --num_voxels_;
 }
@@ -167,19 +167,20 @@ std::size_t IVox::erase(const std::vector<Eigen::Vector3f>& points) {
   for (const Eigen::Vector3f& p : points) {
     const std::int32_t v = find(key_of(p));
     if (v < 0) continue;
-    auto& pts = voxels_[v].points;
-    const auto end = std::remove(pts.begin(), pts.end(), p);
-    const auto n = static_cast<std::size_t>(pts.end() - end);
-    pts.erase(end, pts.end());
+    Voxel& vox = voxels_[v];
+    Eigen::Vector3f* const begin = vox.points.data;
+    const auto n = static_cast<std::size_t>(begin + vox.count - std::remove(begin, begin + vox.count, p));
+    vox.count -= static_cast<std::uint32_t>(n);
     removed += n;
     num_points_ -= n;
-    if (pts.empty()) free_voxel(v);  // free_voxel subtracts the (now zero) points
+    if (vox.count == 0) free_voxel(v);  // free_voxel subtracts the (now zero) points
   }
   return removed;
 }
 
 void IVox::insert(const std::vector<Eigen::Vector3f>& world_points) {
   ++clock_;
+  pool_.prepare();
   for (const Eigen::Vector3f& p : world_points) {
     const Key key = key_of(p);
     std::size_t s = slot_of(key);
@@ -198,7 +199,7 @@ void IVox::insert(const std::vector<Eigen::Vector3f>& world_points) {
       }
       voxels_[v].key = key;
       voxels_[v].last_touch = clock_;
-      voxels_[v].points.reserve(kFirstCapacity);
+      if (voxels_[v].points.data == nullptr) voxels_[v].points = pool_.allocate(kFirstCapacity);
       slots_[s].key = key;
       slots_[s].id = v + 1;
       link_newest(v);
@@ -209,8 +210,14 @@ void IVox::insert(const std::vector<Eigen::Vector3f>& world_points) {
       link_newest(v);
     }
     Voxel& vox = voxels_[v];
-    if (vox.points.size() < config_.max_points_per_voxel) {
-      vox.points.push_back(p);
+    if (vox.count < config_.max_points_per_voxel) {
+      if (vox.count == vox.points.capacity) {  // full chunk: move to one twice its size
+        const PointPool::Chunk larger = pool_.allocate(2 * std::size_t{vox.count});
+        std::memcpy(static_cast<void*>(larger.data), vox.points.data, vox.count * sizeof(Eigen::Vector3f));
+        pool_.release(vox.points);
+        vox.points = larger;
+      }
+      vox.points.data[vox.count++] = p;
       ++num_points_;
     }
     // Grow only now: rebuild_table() skips voxel records without points, so a voxel created by
@@ -244,7 +251,7 @@ void IVox::knn(const Eigen::Vector3f& q, int k, float max_dist, Neighbors& out) 
     if (id[i] >= 0) __builtin_prefetch(&voxels_[id[i]]);
   }
   for (std::size_t i = 0; i < n; ++i) {
-    if (id[i] >= 0) __builtin_prefetch(voxels_[id[i]].points.data());
+    if (id[i] >= 0) __builtin_prefetch(voxels_[id[i]].points.data);
   }
   for (std::size_t i = 0; i < n; ++i) {
     if (id[i] < 0) continue;
@@ -254,7 +261,9 @@ void IVox::knn(const Eigen::Vector3f& q, int k, float max_dist, Neighbors& out) 
         (box_min - q).cwiseMax(q - box_min - Eigen::Vector3f::Constant(voxel_size_)).cwiseMax(0.0f);
     if (gap.squaredNorm() > bound2) continue;
     // Keep the k best in a small sorted array (insertion sort: k ≤ 16).
-    for (const Eigen::Vector3f& p : voxels_[id[i]].points) {
+    const Voxel& vox = voxels_[id[i]];
+    for (const Eigen::Vector3f* it = vox.points.data; it != vox.points.data + vox.count; ++it) {
+      const Eigen::Vector3f& p = *it;
       const float d2 = (p - q).squaredNorm();
       if (d2 > bound2) continue;
       int pos = out.count < k ? out.count++ : k - 1;
@@ -273,25 +282,28 @@ void IVox::knn(const Eigen::Vector3f& q, int k, float max_dist, Neighbors& out) 
 void IVox::trim(const Eigen::Vector3f& center, float half_extent) {
   num_points_ = 0;
   for (std::size_t v = 0; v < voxels_.size(); ++v) {
-    auto& pts = voxels_[v].points;
-    if (pts.empty()) continue;
-    pts.erase(std::remove_if(pts.begin(), pts.end(),
-                             [&](const Eigen::Vector3f& p) { return ((p - center).cwiseAbs().array() > half_extent).any(); }),
-              pts.end());
-    if (pts.empty()) {
-      std::vector<Eigen::Vector3f>().swap(pts);
+    Voxel& vox = voxels_[v];
+    if (vox.count == 0) continue;
+    Eigen::Vector3f* const begin = vox.points.data;
+    vox.count = static_cast<std::uint32_t>(
+        std::remove_if(begin, begin + vox.count,
+                       [&](const Eigen::Vector3f& p) { return ((p - center).cwiseAbs().array() > half_extent).any(); }) -
+        begin);
+    if (vox.count == 0) {
+      pool_.release(vox.points);
+      vox.points = PointPool::Chunk{};
       unlink(static_cast<std::int32_t>(v));
       free_voxels_.push_back(static_cast<std::int32_t>(v));
       --num_voxels_;
     }
-    num_points_ += pts.size();
+    num_points_ += vox.count;
   }
   rebuild_table(num_slots_);
 }
 
 void IVox::for_each_point(const std::function<void(const Eigen::Vector3f&)>& fn) const {
-  for (const auto& v : voxels_) {
-    for (const auto& p : v.points) fn(p);
+  for (const Voxel& v : voxels_) {
+    for (std::uint32_t i = 0; i < v.count; ++i) fn(v.points.data[i]);
   }
 }
 

@@ -51,6 +51,16 @@ void VoxelFilter::filter(const std::vector<Eigen::Vector3f>& points, float voxel
   std::sort(kept.begin(), kept.end());
 }
 
+void VoxelFilter::reserve(std::size_t points) {
+  // The largest table filter() grows to for `points` voxels (it doubles past half load).
+  std::size_t slots = kMinSlots;
+  while (slots < 2 * points) slots *= 2;
+  table_.assign(slots, Slot{0, 0, 0.f, 0});  // written: faulted in; assign() below keeps the capacity
+  reset_table(kMinSlots);
+  used_.assign(points, 0);
+  used_.clear();
+}
+
 std::size_t VoxelFilter::find_slot(std::uint64_t key) const {
   const std::uint64_t mask = table_.size() - 1;
   std::uint64_t h = mix(key) & mask;

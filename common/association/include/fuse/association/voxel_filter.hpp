@@ -13,6 +13,9 @@ class VoxelFilter {
  public:
   /// Writes into `kept` the indices (into points) of the points retained, in input order.
   void filter(const std::vector<Eigen::Vector3f>& points, float voxel_size, std::vector<std::uint32_t>& kept);
+  /// Makes room for clouds of up to `points` points and faults it in now, so that no filter()
+  /// call allocates for them. The table in use stays as small as the clouds need.
+  void reserve(std::size_t points);
 
  private:
   struct Slot {
