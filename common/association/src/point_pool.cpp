@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <stdexcept>
+#include <utility>
 
 namespace fuse {
 
@@ -16,7 +17,7 @@ constexpr std::size_t kBlockBytes = kHugePage;
 constexpr std::size_t kTouchPerPrepare = std::size_t{128} << 10;
 }  // namespace
 
-PointPool::PointPool(std::size_t max_points, std::size_t reserve_points) : max_points_(max_points) {
+PointPool::PointPool(std::size_t max_points, std::size_t reserve_points) {
   if (max_points == 0) throw std::invalid_argument("PointPool: max_points must be at least 1");
   std::size_t capacity = std::min<std::size_t>(kSmallestChunk, max_points);
   for (;;) {

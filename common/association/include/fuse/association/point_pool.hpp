@@ -43,7 +43,6 @@ class PointPool {
   /// Blocks carved into chunks so far, and blocks faulted in and waiting.
   std::size_t num_blocks() const { return blocks_.size(); }
   std::size_t num_ready_blocks() const { return ready_.size(); }
-  std::size_t max_points() const { return max_points_; }
   /// Chunks of this capacity waiting on the free list (for tests).
   std::size_t num_free(std::uint32_t capacity) const;
 
@@ -57,7 +56,6 @@ class PointPool {
   SizeClass& class_for(std::size_t points);
   char* take_block(std::size_t bytes);  ///< a new block for one size, returns its start
 
-  std::size_t max_points_;
   std::vector<SizeClass> classes_;
   std::vector<HugePageRegion> blocks_;
   std::vector<HugePageRegion> ready_;  ///< the reserve: faulted in, not yet carved
