@@ -92,6 +92,57 @@ TEST(FreeSpaceCarver, SurfacesSeenEdgeOnAreNotCarved) {
   EXPECT_FALSE(careless.carve(0.1, wall, origins, *again.map).empty());
 }
 
+// A pedestrian a metre in front of a wall 20 m away, mapped with the wall at t = 0, has gone at
+// t = 0.1. The rays end on the wall, 1 m behind where it stood: too little for the margin
+// (0.15 × 19 + 0.5 m), so without the wall's plane nothing is carved. With the plane the rays end
+// on (as the association matched it), every pedestrian point is carved and no wall point.
+TEST(FreeSpaceCarver, ARayEndingOnAMappedPlaneCarvesWhatIsOffIt) {
+  CarveConfig cfg;
+  cfg.probation_s = 2.0;
+  const auto person = patch({19.0f, -0.2f, -0.8f}, {0.0f, 0.4f, 0.0f}, {0.0f, 0.0f, 1.6f}, 0.1f);
+  const auto wall = patch({20.0f, -4.0f, -2.0f}, {0.0f, 8.0f, 0.0f}, {0.0f, 0.0f, 4.0f}, 0.05f);
+  const std::vector<Eigen::Vector3f> origins(wall.size(), Eigen::Vector3f::Zero());
+  const std::vector<Eigen::Vector3f> normals(wall.size(), Eigen::Vector3f::UnitX());
+  {
+    FreeSpaceCarver carver(cfg);
+    Scene scene;
+    scene.insert(carver, 0.0, person);
+    scene.insert(carver, 0.0, wall);
+    EXPECT_TRUE(carver.carve(0.1, wall, origins, *scene.map).empty());
+  }
+  FreeSpaceCarver carver(cfg);
+  Scene scene;
+  scene.insert(carver, 0.0, person);
+  scene.insert(carver, 0.0, wall);
+  const auto& carved = carver.carve(0.1, wall, origins, *scene.map, &normals);
+  EXPECT_EQ(carved.size(), person.size());
+  EXPECT_EQ(count_within(carved, person), person.size());
+  EXPECT_EQ(count_within(carved, wall), 0u);
+}
+
+// The same edge-on scene as above, with each ray's plane known: a ray ends on the surface it
+// grazes, and the points it passes on that surface lie on the plane it ends on. Nothing is carved,
+// with the grazing test off.
+TEST(FreeSpaceCarver, PointsOnThePlaneARayEndsOnAreKeptHoweverShallowTheRay) {
+  CarveConfig cfg;
+  cfg.probation_s = 10.0;
+  cfg.radius = 0.2;
+  cfg.min_incidence_deg = 0.0;
+  FreeSpaceCarver carver(cfg);
+  Scene scene;
+  const auto ground = patch({2.0f, -3.0f, 0.0f}, {40.0f, 0.0f, 0.0f}, {0.0f, 3.8f, 0.0f}, 0.2f);
+  const auto wall = patch({0.0f, 1.0f, 0.0f}, {30.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 2.5f}, 0.1f);
+  scene.insert(carver, 0.0, ground);
+  scene.insert(carver, 0.0, wall);
+  std::vector<Eigen::Vector3f> ends = ground, normals(ground.size(), Eigen::Vector3f::UnitZ());
+  ends.insert(ends.end(), wall.begin(), wall.end());
+  normals.resize(ends.size(), -Eigen::Vector3f::UnitY());
+  const std::vector<Eigen::Vector3f> origins(ends.size(), Eigen::Vector3f(0.0f, 0.0f, 1.9f));
+  for (int scan = 1; scan <= 10; ++scan) {
+    EXPECT_TRUE(carver.carve(0.1 * scan, ends, origins, *scene.map, &normals).empty()) << "scan " << scan;
+  }
+}
+
 // A surface that later scans keep hitting leaves probation after release_s, untested; points
 // older than probation_s leave it as well, and neither is carved afterwards.
 TEST(FreeSpaceCarver, ASurfaceHitAgainLeavesProbationAndOldPointsAreSafe) {
@@ -182,7 +233,7 @@ TEST(FreeSpaceCarver, TheMappingPolicyCarvesOnlyWithTheRaysOrigins) {
 TEST(FreeSpaceCarver, BadCarveKeysStopWithTheKeyNamed) {
   expect_refused_naming_the_key<MapPolicyConfig>({"carve_s: -1\n", "carve_radius: 0\n", "carve_beyond: 2\n",
                                                    "carve_margin: -0.1\n", "carve_tests: 0\n", "carve_release_s: 0\n",
-                                                   "carve_min_incidence_deg: 90\n"});
+                                                   "carve_min_incidence_deg: 90\n", "carve_plane_gap: 0\n"});
 }
 
 }  // namespace

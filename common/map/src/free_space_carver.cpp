@@ -110,7 +110,8 @@ void FreeSpaceCarver::note_hits(double t, const std::vector<Eigen::Vector3f>& en
   }
 }
 
-void FreeSpaceCarver::bin_rays(const std::vector<Eigen::Vector3f>& ends, const std::vector<Eigen::Vector3f>& origins) {
+void FreeSpaceCarver::bin_rays(const std::vector<Eigen::Vector3f>& ends, const std::vector<Eigen::Vector3f>& origins,
+                               const std::vector<Eigen::Vector3f>* end_normals) {
   // The path's two ends: the origin farthest from the first one, and the one farthest from it.
   std::size_t ia = 0, ib = 0;
   for (std::size_t i = 0; i < origins.size(); ++i) {
@@ -149,7 +150,8 @@ void FreeSpaceCarver::bin_rays(const std::vector<Eigen::Vector3f>& ends, const s
     const float len = ray.norm();
     const int k = slice_of(origins[i]);
     slice_half_ = std::max(slice_half_, (origins[i] - slice_origin_[k]).norm());
-    rays[i] = {origins[i], len > 0.0f ? Eigen::Vector3f(ray / len) : Eigen::Vector3f::Zero(), (len - margin) / beyond};
+    rays[i] = {origins[i], len > 0.0f ? Eigen::Vector3f(ray / len) : Eigen::Vector3f::Zero(), (len - margin) / beyond, len,
+               end_normals != nullptr ? (*end_normals)[i] : Eigen::Vector3f::Zero()};
     const Pixel px = pixel_of(ends[i] - slice_origin_[k]);
     bin_[i] = static_cast<std::uint32_t>(k * kPixels + px.e * kAzimuthPixels + px.a);
     ++start_[bin_[i] + 1];
@@ -177,6 +179,7 @@ bool FreeSpaceCarver::carves(const Eigen::Vector3f& c, const SpatialIndex& map) 
   Eigen::Vector3f normal = Eigen::Vector3f::Zero();
   const auto radius = static_cast<float>(config_.radius);
   const float r2 = radius * radius;
+  const auto gap = static_cast<float>(config_.plane_gap);
   for (int k = 0; k < slices_; ++k) {
     const Eigen::Vector3f d = c - slice_origin_[k];
     const float range = d.norm();
@@ -198,7 +201,12 @@ bool FreeSpaceCarver::carves(const Eigen::Vector3f& c, const SpatialIndex& map) 
           const Ray& ray = rays_[r];
           const Eigen::Vector3f oc = c - ray.o;
           const float s = oc.dot(ray.u);
-          if (s > 0.0f && s < ray.s_max && oc.squaredNorm() - s * s < r2 && steep_enough(c, ray.u, map, plane_state, normal)) {
+          if (s <= 0.0f || oc.squaredNorm() - s * s >= r2) continue;  // the ray does not pass c
+          if (ray.n.squaredNorm() > 0.0f) {
+            // It ends on a mapped plane: c goes if it lies before the end and off that plane,
+            // (e − c)·n with e − c = length·u − (c − o).
+            if (s < ray.length && std::abs(ray.length * ray.n.dot(ray.u) - oc.dot(ray.n)) >= gap) return true;
+          } else if (s < ray.s_max && steep_enough(c, ray.u, map, plane_state, normal)) {
             return true;
           }
         }
@@ -210,12 +218,14 @@ bool FreeSpaceCarver::carves(const Eigen::Vector3f& c, const SpatialIndex& map) 
 
 const std::vector<Eigen::Vector3f>& FreeSpaceCarver::carve(double t, const std::vector<Eigen::Vector3f>& ends,
                                                            const std::vector<Eigen::Vector3f>& origins,
-                                                           const SpatialIndex& map) {
+                                                           const SpatialIndex& map,
+                                                           const std::vector<Eigen::Vector3f>* end_normals) {
   carved_.clear();
   expire(t);
   if (young_.empty() || ends.empty() || origins.size() != ends.size()) return carved_;
+  if (end_normals != nullptr && end_normals->size() != ends.size()) end_normals = nullptr;
   note_hits(t, ends);
-  bin_rays(ends, origins);
+  bin_rays(ends, origins, end_normals);
   // Every stride-th young point from a phase that turns with each scan: each is tested every
   // stride scans when there are more than max_tests.
   const std::size_t stride = std::max<std::size_t>(1, (young_.size() + config_.max_tests - 1) / config_.max_tests);

@@ -36,7 +36,9 @@ void MapPolicyConfig::load(ConfigNode& node) {
   node.check(std::isfinite(carve_beyond) && carve_beyond >= 0.0 && carve_beyond <= 1.0, "carve_beyond",
              "must be in [0, 1]");
   node.get("carve_tests", carve_tests).get("carve_release_s", carve_release_s);
-  node.get("carve_min_incidence_deg", carve_min_incidence_deg);
+  node.get("carve_min_incidence_deg", carve_min_incidence_deg).get("carve_plane_gap", carve_plane_gap);
+  node.check(std::isfinite(carve_plane_gap) && carve_plane_gap > 0.0 && carve_plane_gap <= 10.0, "carve_plane_gap",
+             "must be in (0, 10] m");
   node.check(std::isfinite(carve_min_incidence_deg) && carve_min_incidence_deg >= 0.0 && carve_min_incidence_deg < 90.0,
              "carve_min_incidence_deg", "must be in [0, 90) degrees");
   node.check(std::isfinite(carve_release_s) && carve_release_s > 0.0 && carve_release_s <= kMaxConfirmS,
@@ -76,17 +78,19 @@ void MappingPolicy::forget_stale(double t) {
 
 MappingPolicy::MappingPolicy(const MapPolicyConfig& config)
     : config_(config), carver_(CarveConfig{config.carve_s, config.carve_radius, config.carve_beyond, config.carve_margin,
-                                           config.carve_min_incidence_deg, config.carve_release_s, config.carve_tests}) {}
+                                           config.carve_min_incidence_deg, config.carve_release_s, config.carve_tests,
+                                           config.carve_plane_gap}) {}
 
 MapUpdateStats MappingPolicy::apply(double t, const std::vector<Eigen::Vector3f>& world_points, SpatialIndex& map,
                                     const std::vector<float>* nearest_dist2,
                                     std::vector<Eigen::Vector3f>* inserted,
-                                    const std::vector<Eigen::Vector3f>* origins) {
+                                    const std::vector<Eigen::Vector3f>* origins,
+                                    const std::vector<Eigen::Vector3f>* plane_normals) {
   MapUpdateStats stats;
   stats.offered = world_points.size();
   const bool carving = config_.carve_s > 0.0;
   if (carving && origins != nullptr && origins->size() == world_points.size()) {
-    const std::vector<Eigen::Vector3f>& carved = carver_.carve(t, world_points, *origins, map);
+    const std::vector<Eigen::Vector3f>& carved = carver_.carve(t, world_points, *origins, map, plane_normals);
     if (!carved.empty()) stats.carved = map.erase(carved);
   }
   to_insert_.clear();
