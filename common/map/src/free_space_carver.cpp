@@ -193,23 +193,34 @@ bool FreeSpaceCarver::carves(const Eigen::Vector3f& c, const SpatialIndex& map) 
     const int e_lo = std::max(0, pc.e - w), e_hi = std::min(kElevationPixels - 1, pc.e + w);
     const int wa = std::min(kAzimuthPixels / 2, static_cast<int>(std::ceil(static_cast<float>(w) * inv_cos_rows(e_lo, e_hi))));
     const std::uint32_t* start = start_.data() + static_cast<std::size_t>(k) * kPixels;
-    for (int e = e_lo; e <= e_hi; ++e) {
-      const int row = e * kAzimuthPixels;
-      for (int da = -wa; da <= wa; ++da) {
-        const int q = row + (pc.a + da + kAzimuthPixels) % kAzimuthPixels;
-        for (std::uint32_t r = start[q]; r < start[q + 1]; ++r) {
-          const Ray& ray = rays_[r];
-          const Eigen::Vector3f oc = c - ray.o;
-          const float s = oc.dot(ray.u);
-          if (s <= 0.0f || oc.squaredNorm() - s * s >= r2) continue;  // the ray does not pass c
-          if (ray.n.squaredNorm() > 0.0f) {
-            // It ends on a mapped plane: c goes if it lies before the end and off that plane,
-            // (e − c)·n with e − c = length·u − (c − o).
-            if (s < ray.length && std::abs(ray.length * ray.n.dot(ray.u) - oc.dot(ray.n)) >= gap) return true;
-          } else if (s < ray.s_max && steep_enough(c, ray.u, map, plane_state, normal)) {
-            return true;
-          }
+    // A row's pixels are consecutive in the counting sort, so the rays of the window's part of
+    // a row are one run (two where the window wraps around the azimuth's seam).
+    const auto passes = [&](std::uint32_t first, std::uint32_t last) {
+      for (std::uint32_t r = first; r < last; ++r) {
+        const Ray& ray = rays_[r];
+        const Eigen::Vector3f oc = c - ray.o;
+        const float s = oc.dot(ray.u);
+        if (s <= 0.0f || oc.squaredNorm() - s * s >= r2) continue;  // the ray does not pass c
+        if (ray.n.squaredNorm() > 0.0f) {
+          // It ends on a mapped plane: c goes if it lies before the end and off that plane,
+          // (e − c)·n with e − c = length·u − (c − o).
+          if (s < ray.length && std::abs(ray.length * ray.n.dot(ray.u) - oc.dot(ray.n)) >= gap) return true;
+        } else if (s < ray.s_max && steep_enough(c, ray.u, map, plane_state, normal)) {
+          return true;
         }
+      }
+      return false;
+    };
+    const bool whole_row = 2 * wa + 1 >= kAzimuthPixels;
+    const int a_lo = whole_row ? 0 : pc.a - wa, a_hi = whole_row ? kAzimuthPixels - 1 : pc.a + wa;
+    for (int e = e_lo; e <= e_hi; ++e) {
+      const std::uint32_t* row = start + e * kAzimuthPixels;
+      if (a_lo < 0) {
+        if (passes(row[a_lo + kAzimuthPixels], row[kAzimuthPixels]) || passes(row[0], row[a_hi + 1])) return true;
+      } else if (a_hi >= kAzimuthPixels) {
+        if (passes(row[a_lo], row[kAzimuthPixels]) || passes(row[0], row[a_hi - kAzimuthPixels + 1])) return true;
+      } else if (passes(row[a_lo], row[a_hi + 1])) {
+        return true;
       }
     }
   }
