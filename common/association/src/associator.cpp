@@ -61,7 +61,6 @@ void Associator::associate(const std::vector<Eigen::Vector3f>& points_L, const E
   out.clear();
   out.constraints.reserve(points_L.size());
   out.nearest_dist2.resize(points_L.size());
-  out.plane_normal.assign(points_L.size(), Eigen::Vector3f::Zero());
   const Eigen::Matrix3f R = T_WL.linear().cast<float>();
   const Eigen::Vector3f t = T_WL.translation().cast<float>();
   const float max_dist = static_cast<float>(config_.max_neighbor_distance);
@@ -88,7 +87,6 @@ void Associator::associate(const std::vector<Eigen::Vector3f>& points_L, const E
       ++out.rejected_screening;
       continue;
     }
-    out.plane_normal[i] = c.normal;
     out.constraints.push_back(c);
   }
 }

@@ -345,11 +345,9 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
       origins_W_.resize(origins_L_.size());
       for (std::size_t i = 0; i < origins_L_.size(); ++i) origins_W_[i] = R * origins_L_[i] + t;
     }
-    // The planes the association matched the points to are what the rays end on (carving).
-    const bool have_planes = have_nearest && constraints_.plane_normal.size() == points_W_.size();
     const MapUpdateStats map_stats =
         map_policy_->apply(scan.t_end, points_W_, *map_, have_nearest && !report.map_held ? &constraints_.nearest_dist2 : nullptr,
-                           nullptr, trusted ? &origins_W_ : nullptr, trusted && have_planes ? &constraints_.plane_normal : nullptr);
+                           nullptr, trusted ? &origins_W_ : nullptr);
     report.map_inserted = map_stats.inserted;
     report.map_carved = map_stats.carved;
     report.map_pending = map_stats.pending;

@@ -110,8 +110,7 @@ void FreeSpaceCarver::note_hits(double t, const std::vector<Eigen::Vector3f>& en
   }
 }
 
-void FreeSpaceCarver::bin_rays(const std::vector<Eigen::Vector3f>& ends, const std::vector<Eigen::Vector3f>& origins,
-                               const std::vector<Eigen::Vector3f>* end_normals) {
+void FreeSpaceCarver::bin_rays(const std::vector<Eigen::Vector3f>& ends, const std::vector<Eigen::Vector3f>& origins) {
   // The path's two ends: the origin farthest from the first one, and the one farthest from it.
   std::size_t ia = 0, ib = 0;
   for (std::size_t i = 0; i < origins.size(); ++i) {
@@ -150,8 +149,7 @@ void FreeSpaceCarver::bin_rays(const std::vector<Eigen::Vector3f>& ends, const s
     const float len = ray.norm();
     const int k = slice_of(origins[i]);
     slice_half_ = std::max(slice_half_, (origins[i] - slice_origin_[k]).norm());
-    rays[i] = {origins[i], len > 0.0f ? Eigen::Vector3f(ray / len) : Eigen::Vector3f::Zero(), (len - margin) / beyond, len,
-               end_normals != nullptr ? (*end_normals)[i] : Eigen::Vector3f::Zero()};
+    rays[i] = {origins[i], len > 0.0f ? Eigen::Vector3f(ray / len) : Eigen::Vector3f::Zero(), (len - margin) / beyond, len};
     const Pixel px = pixel_of(ends[i] - slice_origin_[k]);
     bin_[i] = static_cast<std::uint32_t>(k * kPixels + px.e * kAzimuthPixels + px.a);
     ++start_[bin_[i] + 1];
@@ -201,13 +199,19 @@ bool FreeSpaceCarver::carves(const Eigen::Vector3f& c, const SpatialIndex& map) 
         const Eigen::Vector3f oc = c - ray.o;
         const float s = oc.dot(ray.u);
         if (s <= 0.0f || oc.squaredNorm() - s * s >= r2) continue;  // the ray does not pass c
-        if (ray.n.squaredNorm() > 0.0f) {
-          // It ends on a mapped plane: c goes if it lies before the end and off that plane,
-          // (e − c)·n with e − c = length·u − (c − o).
-          if (s < ray.length && std::abs(ray.length * ray.n.dot(ray.u) - oc.dot(ray.n)) >= gap) return true;
-        } else if (s < ray.s_max && steep_enough(c, ray.u, map, plane_state, normal)) {
-          return true;
+        const bool steep = steep_enough(c, ray.u, map, plane_state, normal);
+        if (plane_state == 1) {
+          // c lies on a plane (normal n): the ray must cross it within the radius of c, at
+          // s_x = (c − o)·n / u·n, and end behind it by plane_gap, (length − s_x)·|u·n|. A ray
+          // ending on c's own surface, or on another just in front of it, does not.
+          if (!steep) continue;
+          const float un = ray.u.dot(normal);
+          const float s_x = oc.dot(normal) / un;
+          if (s_x <= 0.0f || (ray.o + s_x * ray.u - c).squaredNorm() >= r2) continue;
+          if ((ray.length - s_x) * std::abs(un) >= gap) return true;
+          continue;
         }
+        if (s < ray.s_max && steep) return true;  // c on no plane (an edge, a small object): the margin
       }
       return false;
     };
@@ -229,14 +233,12 @@ bool FreeSpaceCarver::carves(const Eigen::Vector3f& c, const SpatialIndex& map) 
 
 const std::vector<Eigen::Vector3f>& FreeSpaceCarver::carve(double t, const std::vector<Eigen::Vector3f>& ends,
                                                            const std::vector<Eigen::Vector3f>& origins,
-                                                           const SpatialIndex& map,
-                                                           const std::vector<Eigen::Vector3f>* end_normals) {
+                                                           const SpatialIndex& map) {
   carved_.clear();
   expire(t);
   if (young_.empty() || ends.empty() || origins.size() != ends.size()) return carved_;
-  if (end_normals != nullptr && end_normals->size() != ends.size()) end_normals = nullptr;
   note_hits(t, ends);
-  bin_rays(ends, origins, end_normals);
+  bin_rays(ends, origins);
   // Every stride-th young point from a phase that turns with each scan: each is tested every
   // stride scans when there are more than max_tests.
   const std::size_t stride = std::max<std::size_t>(1, (young_.size() + config_.max_tests - 1) / config_.max_tests);

@@ -84,13 +84,12 @@ MappingPolicy::MappingPolicy(const MapPolicyConfig& config)
 MapUpdateStats MappingPolicy::apply(double t, const std::vector<Eigen::Vector3f>& world_points, SpatialIndex& map,
                                     const std::vector<float>* nearest_dist2,
                                     std::vector<Eigen::Vector3f>* inserted,
-                                    const std::vector<Eigen::Vector3f>* origins,
-                                    const std::vector<Eigen::Vector3f>* plane_normals) {
+                                    const std::vector<Eigen::Vector3f>* origins) {
   MapUpdateStats stats;
   stats.offered = world_points.size();
   const bool carving = config_.carve_s > 0.0;
   if (carving && origins != nullptr && origins->size() == world_points.size()) {
-    const std::vector<Eigen::Vector3f>& carved = carver_.carve(t, world_points, *origins, map, plane_normals);
+    const std::vector<Eigen::Vector3f>& carved = carver_.carve(t, world_points, *origins, map);
     if (!carved.empty()) stats.carved = map.erase(carved);
   }
   to_insert_.clear();

@@ -25,15 +25,9 @@ struct ConstraintSet {
   /// Per input point: squared distance to its nearest map point at the last association
   /// (infinity when none within the search radius). The mapping policy reuses it.
   std::vector<float> nearest_dist2;
-  /// Per input point: the unit normal (world) of the map plane it was matched to at the last
-  /// search of the map, zero when that search found no plane or the screening refused the match
-  /// (a later re-screening leaves it). The mapping policy's free-space carving reuses it: the
-  /// surface the point's ray ends on.
-  std::vector<Eigen::Vector3f> plane_normal;
   void clear() {
     constraints.clear();
     nearest_dist2.clear();
-    plane_normal.clear();
     rejected_no_neighbors = rejected_not_planar = rejected_screening = 0;
   }
   std::size_t rejected() const { return rejected_no_neighbors + rejected_not_planar + rejected_screening; }

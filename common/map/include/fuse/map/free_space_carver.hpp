@@ -11,12 +11,12 @@
 // surface's points long before its end, so a point is also kept when the map around it is a
 // plane the ray meets at less than min_incidence_deg: a surface seen edge-on, not free space.
 //
-// When the ray's end was matched to a plane of the map (its normal n comes from the
-// association), what the ray ends on is known, and a tighter test replaces the last one: c is
-// carved when it lies before the end and off that plane, |(e − c)·n| ≥ plane_gap, e the ray's
-// end. A point on the surface the ray ends on is kept however shallow the ray; a pedestrian a
-// metre in front of a wall is carved, where the margin alone needed the wall 0.15 × range +
-// 0.5 m behind it.
+// Where the map around c is a plane (normal n), a test of the surface replaces the margin: the
+// ray must cross c's plane within radius of c, at s_x = (c − o)·n / u·n, and end behind it by at
+// least plane_gap, (L − s_x)·|u·n| ≥ plane_gap. The ray went through that surface where c is. A
+// ray that ends on c's own surface, or on another just in front of it (the floor at the foot of a
+// wall), does not carve c; the side of a car a metre in front of a wall is carved, where the
+// margin alone needed the wall 0.15 × range + 0.5 m behind it.
 //
 // Finding the rays near c: the scan's rays are binned by direction in a range image (2° pixels)
 // seen from a point of the path the LiDAR moved along during the scan, and c is tested against
@@ -54,7 +54,7 @@ struct CarveConfig {
   double min_incidence_deg = 15.0;  ///< a ray shallower than this to the point's plane does not carve it
   double release_s = 0.5;    ///< s, a point whose cell is hit over this long leaves probation
   std::size_t max_tests = 20000;  ///< young points tested per scan at most
-  double plane_gap = 0.3;  ///< m, a ray ending on a mapped plane carves only points this far off it
+  double plane_gap = 0.3;  ///< m, how far behind a point's plane a ray must end to carve it
 };
 
 class FreeSpaceCarver {
@@ -66,11 +66,8 @@ class FreeSpaceCarver {
   /// Tests the young points against one scan's rays, ray i from origins[i] to ends[i] (world
   /// frame, measured at t), and returns the carved ones (no longer on probation; the caller
   /// removes them from the map). Points older than probation_s at t leave probation first.
-  /// end_normals (optional, one per ray): the normal of the map plane ray i ends on, zero when
-  /// it ends on none.
   const std::vector<Eigen::Vector3f>& carve(double t, const std::vector<Eigen::Vector3f>& ends,
-                                            const std::vector<Eigen::Vector3f>& origins, const SpatialIndex& map,
-                                            const std::vector<Eigen::Vector3f>* end_normals = nullptr);
+                                            const std::vector<Eigen::Vector3f>& origins, const SpatialIndex& map);
   std::size_t on_probation() const { return young_.size(); }
   std::size_t released() const { return released_; }
 
@@ -89,14 +86,12 @@ class FreeSpaceCarver {
     Eigen::Vector3f o, u;
     float s_max;  ///< carves only points projecting onto (0, s_max)
     float length;
-    Eigen::Vector3f n;  ///< the normal of the plane it ends on (zero: none known)
   };
   std::uint64_t cell_of(const Eigen::Vector3f& p) const;
   /// Ends the probation of points older than probation_s at t; frees cells no longer hit.
   void expire(double t);
   void note_hits(double t, const std::vector<Eigen::Vector3f>& ends);
-  void bin_rays(const std::vector<Eigen::Vector3f>& ends, const std::vector<Eigen::Vector3f>& origins,
-                const std::vector<Eigen::Vector3f>* end_normals);
+  void bin_rays(const std::vector<Eigen::Vector3f>& ends, const std::vector<Eigen::Vector3f>& origins);
   bool carves(const Eigen::Vector3f& c, const SpatialIndex& map) const;
   /// Whether the ray along u meets the map's surface at c at min_incidence_deg or more (true
   /// where the map around c is not a plane: nothing to graze).

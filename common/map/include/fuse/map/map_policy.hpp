@@ -54,9 +54,9 @@ struct MapPolicyConfig {
   /// degrees: a ray meeting the plane of the map around a point at less than this grazes a
   /// surface seen edge-on (a corridor's wall, the ground far ahead) and does not carve it.
   double carve_min_incidence_deg = 15.0;
-  /// m: a ray whose end the association matched to a plane of the map carves a point before its
-  /// end only when the point lies at least this far off that plane (not on the surface the ray
-  /// ends on). Rays without a matched plane keep carve_beyond and carve_margin.
+  /// m: a point on a plane of the map is carved by a ray that crosses that plane within
+  /// carve_radius of it and ends at least this far behind the plane (it went through the
+  /// surface). Points on no plane keep carve_beyond and carve_margin.
   double carve_plane_gap = 0.3;
   void load(ConfigNode& node);
 };
@@ -78,13 +78,11 @@ class MapPolicy {
   /// t: when the points were measured (s), for a policy that judges persistence over time.
   /// origins (optional, one per point): where the LiDAR was when it measured each point (world
   /// frame), so that point i ends the ray origins[i] → world_points[i]; only a scan whose pose
-  /// is trusted should pass them (they carve the map). plane_normals (optional, one per point,
-  /// with origins): the normal of the map plane each point was matched to, zero when none.
+  /// is trusted should pass them (they carve the map).
   virtual MapUpdateStats apply(double t, const std::vector<Eigen::Vector3f>& world_points, SpatialIndex& map,
                                const std::vector<float>* nearest_dist2 = nullptr,
                                std::vector<Eigen::Vector3f>* inserted = nullptr,
-                               const std::vector<Eigen::Vector3f>* origins = nullptr,
-                               const std::vector<Eigen::Vector3f>* plane_normals = nullptr) = 0;
+                               const std::vector<Eigen::Vector3f>* origins = nullptr) = 0;
   virtual std::string name() const = 0;
 };
 
@@ -94,8 +92,7 @@ class MappingPolicy final : public MapPolicy {
   MapUpdateStats apply(double t, const std::vector<Eigen::Vector3f>& world_points, SpatialIndex& map,
                        const std::vector<float>* nearest_dist2 = nullptr,
                        std::vector<Eigen::Vector3f>* inserted = nullptr,
-                       const std::vector<Eigen::Vector3f>* origins = nullptr,
-                       const std::vector<Eigen::Vector3f>* plane_normals = nullptr) override;
+                       const std::vector<Eigen::Vector3f>* origins = nullptr) override;
   std::string name() const override { return "mapping"; }
   std::size_t places_pending() const { return places_.size(); }
   std::size_t points_on_probation() const { return carver_.on_probation(); }
@@ -122,7 +119,6 @@ class LocalizationPolicy final : public MapPolicy {
  public:
   MapUpdateStats apply(double, const std::vector<Eigen::Vector3f>& world_points, SpatialIndex&,
                        const std::vector<float>* = nullptr, std::vector<Eigen::Vector3f>* inserted = nullptr,
-                       const std::vector<Eigen::Vector3f>* = nullptr,
                        const std::vector<Eigen::Vector3f>* = nullptr) override {
     if (inserted != nullptr) inserted->clear();
     return {world_points.size(), 0, 0, 0};
