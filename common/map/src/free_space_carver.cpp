@@ -178,6 +178,10 @@ bool FreeSpaceCarver::carves(const Eigen::Vector3f& c, const SpatialIndex& map) 
   const auto radius = static_cast<float>(config_.radius);
   const float r2 = radius * radius;
   const auto gap = static_cast<float>(config_.plane_gap);
+  // Neither test carves c with a ray ending less than this beyond c's projection s onto it: the
+  // surface test needs length − s_x ≥ gap with |s_x − s| < radius, the margin s < s_max ≤
+  // length − margin. Checked before the plane around c is fitted.
+  const float min_beyond = std::min(gap - radius, static_cast<float>(config_.margin));
   for (int k = 0; k < slices_; ++k) {
     const Eigen::Vector3f d = c - slice_origin_[k];
     const float range = d.norm();
@@ -199,6 +203,7 @@ bool FreeSpaceCarver::carves(const Eigen::Vector3f& c, const SpatialIndex& map) 
         const Eigen::Vector3f oc = c - ray.o;
         const float s = oc.dot(ray.u);
         if (s <= 0.0f || oc.squaredNorm() - s * s >= r2) continue;  // the ray does not pass c
+        if (ray.length - s <= min_beyond) continue;  // it ends before c or too little beyond to carve it
         const bool steep = steep_enough(c, ray.u, map, plane_state, normal);
         if (plane_state == 1) {
           // c lies on a plane (normal n): the ray must cross it within the radius of c, at
