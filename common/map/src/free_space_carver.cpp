@@ -209,8 +209,8 @@ bool FreeSpaceCarver::carves(const Eigen::Vector3f& c, const SpatialIndex& map) 
           // c lies on a plane (normal n): the ray must cross it within the radius of c, at
           // s_x = (c − o)·n / u·n, and end behind it by plane_gap, (length − s_x)·|u·n|. A ray
           // ending on c's own surface, or on another just in front of it, does not.
-          if (!steep) continue;
           const float un = ray.u.dot(normal);
+          if (!steep || un == 0.0f) continue;  // parallel to the plane (min_incidence_deg 0): it crosses nothing
           const float s_x = oc.dot(normal) / un;
           if (s_x <= 0.0f || (ray.o + s_x * ray.u - c).squaredNorm() >= r2) continue;
           if ((ray.length - s_x) * std::abs(un) >= gap) return true;
