@@ -284,6 +284,8 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
     log->info("map saved to {}: {} points", config.save_map, map.num_points());
   }
   summary.time_offset = estimator.initialised() ? estimator.latest().x.td : config.estimator.time_offset.initial_s;
+  summary.R_IL = estimator.initialised() ? estimator.latest().x.R_IL : config.estimator.T_imu_lidar.rotation();
+  summary.p_IL = estimator.initialised() ? estimator.latest().x.p_IL : config.estimator.T_imu_lidar.translation();
   if (const MapLocalization* L = estimator.map_localization()) {
     summary.searches = L->searches();
     summary.search_s = L->search_seconds();

@@ -58,6 +58,10 @@ struct RunSummary {
   /// The LiDAR-IMU time offset at the end (s, t_imu = t_lidar + it): estimator.time_offset's
   /// initial_s, or its estimate when estimated.
   double time_offset = 0.0;
+  /// The extrinsic T_imu_lidar at the end (p_imu = R_IL·p_lidar + p_IL): the one given, or its
+  /// estimate with estimator.estimate_extrinsic.
+  Eigen::Matrix3d R_IL = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d p_IL = Eigen::Vector3d::Zero();
   /// The run diverged by a measure computable without truth (DivergenceError, lost at the end or
   /// for longer than estimator.tracking.max_lost_s): fuse-run exits 3.
   bool diverged = false;
