@@ -38,6 +38,20 @@ TEST(ExcitationMonitor, AVehicleTurningOnlyAboutItsVerticalAxisDoesNotExciteIt) 
   });
   EXPECT_NEAR(m.weakest_rate() / kDeg, 0.35, 0.1);  // RMS of a 0.5 deg/s sine
   EXPECT_FALSE(m.excited());
+  // It turns about one axis, the vertical: the tilt against it is seen (one_axis: tilt).
+  Eigen::Vector3d axis = Eigen::Vector3d::Zero();
+  ASSERT_TRUE(m.turns_about(axis));
+  EXPECT_NEAR(std::abs(axis.z()), 1.0, 1e-3);
+}
+
+TEST(ExcitationMonitor, AVehicleDrivingStraightTurnsAboutNoAxis) {
+  ExcitationMonitor m(ExcitationConfig{});
+  feed(m, 0.0, 10.0, [](double t) {
+    return Eigen::Vector3d(0.5 * kDeg * std::sin(7.0 * t), 0.5 * kDeg * std::cos(5.0 * t), 1.0 * kDeg * std::sin(0.5 * t));
+  });
+  Eigen::Vector3d axis = Eigen::Vector3d::Zero();
+  EXPECT_FALSE(m.excited());
+  EXPECT_FALSE(m.turns_about(axis));
 }
 
 TEST(ExcitationMonitor, ASensorSwayingAboutEveryAxisExcitesIt) {
@@ -57,7 +71,9 @@ TEST(ExcitationMonitor, TheWindowMustBeHalfFullAndTimeGoingBackStartsOver) {
     return Eigen::Vector3d(10.0 * kDeg * std::sin(3.0 * t), 10.0 * kDeg * std::cos(3.0 * t), 10.0 * kDeg * std::sin(2.0 * t));
   };
   feed(m, 0.0, 1.5, sway);
+  Eigen::Vector3d axis;
   EXPECT_FALSE(m.excited());  // 1.4 s of rates: less than half of 4 s
+  EXPECT_FALSE(m.turns_about(axis));
   const double t = feed(m, 1.5, 1.5, sway);
   EXPECT_TRUE(m.excited());
   feed(m, t - 10.0, 0.5, sway);  // an older time: the window restarts
@@ -66,7 +82,7 @@ TEST(ExcitationMonitor, TheWindowMustBeHalfFullAndTimeGoingBackStartsOver) {
 
 TEST(ExcitationMonitor, BadValuesAreRefusedNamingTheKey) {
   expect_refused_naming_the_key<ExcitationConfig>(
-      {"window_s: 0\n", "window_s: 1000\n", "min_rate_deg_s: -1\n", "min_rate_deg_s: .nan\n"});
+      {"window_s: 0\n", "window_s: 1000\n", "min_rate_deg_s: -1\n", "min_rate_deg_s: .nan\n", "one_axis: free\n"});
 }
 
 }  // namespace

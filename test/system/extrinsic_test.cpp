@@ -1,9 +1,10 @@
 // The LiDAR-IMU extrinsic online (estimator.estimate_extrinsic, docs/architecture.md "LiDAR-IMU
 // extrinsic online"), given 3° and 5 cm wrong: the room's handheld turns about every axis must
 // bring it back within 0.5° and 2 cm of the truth (the recording's own calibration) in 20 s, and
-// the trajectory must be better for it; on the campus drive, which turns about the vertical only, the estimator
+// the trajectory must be better for it; on a car's drive, which turns about the vertical only, the estimator
 // must notice that the motion does not excite it and hold the extrinsic where it was given
-// instead of letting it drift.
+// instead of letting it drift: all of it (one_axis: hold), or all but the LiDAR's tilt against
+// the turn axis, which the turns do show (one_axis: tilt, as shipped).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -73,7 +74,7 @@ TEST(Extrinsic, ConvergesWhereTheSensorTurnsAboutEveryAxis) {
   const double rot = rotation_error_deg(truth, estimated), trans = translation_error_cm(truth, estimated);
   std::cout << "room, 20 s: estimate " << rot << " deg / " << trans << " cm from the truth; ATE " << ate(room, estimated)
             << " m (held at the wrong one: " << ate(room, fixed) << " m, true one: " << ate(room, truth) << " m)\n";
-  // Measured: 0.38° / 0.2 cm; ATE 2.3 cm against 3.3 cm held at the wrong one and 0.6 cm with the
+  // Measured: 0.34° / 0.3 cm; ATE 2.3 cm against 3.3 cm held at the wrong one and 0.6 cm with the
   // true one (the map built in the first seconds, with the extrinsic still wrong, stays).
   EXPECT_LT(rot, 0.5);
   EXPECT_LT(trans, 2.0);
@@ -81,30 +82,38 @@ TEST(Extrinsic, ConvergesWhereTheSensorTurnsAboutEveryAxis) {
 }
 
 TEST(Extrinsic, IsHeldWhereTheMotionDoesNotExciteIt) {
-  const std::string campus = "campus30";
-  if (!std::filesystem::exists(recording(campus))) GTEST_SKIP() << "no simulated campus data (the fuse_sim_data fixture)";
-  const RunSummary truth = truth_run(campus);
+  const std::string urban = "urban45";
+  if (!std::filesystem::exists(recording(urban))) GTEST_SKIP() << "no simulated urban data (the fuse_sim_data fixture)";
+  const RunSummary truth = truth_run(urban);
   ASSERT_TRUE(truth.error.empty()) << truth.error;
   const Eigen::Isometry3d given = wrong(truth, 3.0, 5.0);
-  const RunSummary held = run_given(campus, given, true);
-  // The same with the excitation check off: what holding prevents.
-  const RunSummary free = run_given(campus, given, true, {"estimator.extrinsic_excitation.min_rate_deg_s=0"});
-  ASSERT_TRUE(held.error.empty() && free.error.empty());
+  // As shipped (one_axis: tilt): the tilt against the vertical turn is estimated, the rest held.
+  const RunSummary tilt = run_given(urban, given, true);
+  const RunSummary held = run_given(urban, given, true, {"estimator.extrinsic_excitation.one_axis=hold"});
+  // With the excitation check off: what holding prevents.
+  const RunSummary free = run_given(urban, given, true, {"estimator.extrinsic_excitation.min_rate_deg_s=0"});
+  const RunSummary fixed = run_given(urban, given, false);
+  ASSERT_TRUE(tilt.error.empty() && held.error.empty() && free.error.empty() && fixed.error.empty());
   const auto count = [](const RunSummary& s) {
     const auto it = s.estimator_counts.find("extrinsic_held_weak_excitation");
     return it == s.estimator_counts.end() ? std::uint64_t{0} : it->second;
   };
-  const double moved_held = so3::Log(given.linear().transpose() * held.R_IL).norm() / kDeg;
-  const double moved_free = so3::Log(given.linear().transpose() * free.R_IL).norm() / kDeg;
-  std::cout << "campus, 30 s: held " << count(held) << " of " << held.scans_updated << " updated scans, moved "
-            << moved_held << " deg / " << (held.p_IL - given.translation()).norm() * 100.0
-            << " cm; never held: moved " << moved_free << " deg / " << (free.p_IL - given.translation()).norm() * 100.0
-            << " cm (" << count(free) << " held)\n";
+  const auto moved_deg = [&](const RunSummary& s) { return so3::Log(given.linear().transpose() * s.R_IL).norm() / kDeg; };
+  const auto moved_cm = [&](const RunSummary& s) { return (s.p_IL - given.translation()).norm() * 100.0; };
+  std::cout << "urban, 45 s: held on " << count(held) << " of " << held.scans_updated << " updated scans; one_axis hold: moved "
+            << moved_deg(held) << " deg / " << moved_cm(held) << " cm; tilt: " << rotation_error_deg(truth, tilt)
+            << " deg from the truth (given 3), moved " << moved_cm(tilt) << " cm, ATE " << ate(urban, tilt)
+            << " m against " << ate(urban, fixed) << " m not estimated; never held: moved " << moved_deg(free) << " deg / "
+            << moved_cm(free) << " cm\n";
+  // Measured: held on 440 of 440; hold moves nothing; tilt 2.45° from the truth (its part about the
+  // vertical, 1.73°, is not seen), 2e-9 m, ATE 4.6 against 6.3 cm; never held: 0.64° and 4.7 cm moved.
   EXPECT_GE(count(held), held.scans_updated) << "every updated scan holds it";
-  EXPECT_LT(moved_held, 1e-6);
-  EXPECT_LT((held.p_IL - given.translation()).norm(), 1e-9);
-  EXPECT_GT(moved_free + (free.p_IL - given.translation()).norm() * 100.0, 0.01)
-      << "without the check, the data must move the extrinsic (or holding tests nothing)";
+  EXPECT_LT(moved_deg(held), 1e-6);
+  EXPECT_LT(moved_cm(held), 1e-7);
+  EXPECT_LT(moved_cm(tilt), 0.01) << "the translation is held while the motion turns about one axis";
+  EXPECT_LT(rotation_error_deg(truth, tilt), 3.0) << "the tilt, seen by the turns, comes closer to the truth";
+  EXPECT_LT(ate(urban, tilt), ate(urban, fixed));
+  EXPECT_GT(moved_deg(free) + moved_cm(free), 0.01) << "without the check, the data must move the extrinsic (or holding tests nothing)";
 }
 
 }  // namespace

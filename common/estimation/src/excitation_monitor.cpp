@@ -2,6 +2,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <cmath>
+#include <string>
 
 #include "fuse/core/so3.hpp"
 
@@ -13,7 +14,10 @@ constexpr double kDegToRad = M_PI / 180.0;
 }  // namespace
 
 void ExcitationConfig::load(ConfigNode& node) {
-  node.get("window_s", window_s).get("min_rate_deg_s", min_rate_deg_s);
+  std::string axis = one_axis == OneAxis::kTilt ? "tilt" : "hold";
+  node.get("window_s", window_s).get("min_rate_deg_s", min_rate_deg_s).get("one_axis", axis);
+  node.check(axis == "tilt" || axis == "hold", "one_axis", "must be tilt or hold");
+  one_axis = axis == "tilt" ? OneAxis::kTilt : OneAxis::kHold;
   node.check(std::isfinite(window_s) && window_s > 0.0 && window_s <= kMaxWindowS, "window_s", "must be in (0, 600] s");
   node.check(std::isfinite(min_rate_deg_s) && min_rate_deg_s >= 0.0 && min_rate_deg_s <= 180.0, "min_rate_deg_s",
              "must be in [0, 180] deg/s");
@@ -32,11 +36,15 @@ void ExcitationMonitor::add(double t, const Eigen::Matrix3d& R_WI) {
   while (!rates_.empty() && rates_.front().t < t - config_.window_s) rates_.pop_front();
 }
 
-double ExcitationMonitor::weakest_rate() const {
-  if (rates_.empty()) return 0.0;
+Eigen::Matrix3d ExcitationMonitor::moment() const {
   Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
   for (const Rate& r : rates_) M += r.w * r.w.transpose();
-  M /= static_cast<double>(rates_.size());
+  return M / static_cast<double>(rates_.size());
+}
+
+double ExcitationMonitor::weakest_rate() const {
+  if (rates_.empty()) return 0.0;
+  const Eigen::Matrix3d M = moment();
   const double lambda_min = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(M, Eigen::EigenvaluesOnly).eigenvalues()(0);
   return std::sqrt(std::max(lambda_min, 0.0));
 }
@@ -44,6 +52,14 @@ double ExcitationMonitor::weakest_rate() const {
 bool ExcitationMonitor::excited() const {
   if (rates_.empty() || last_t_ - rates_.front().t < 0.5 * config_.window_s) return false;
   return weakest_rate() >= config_.min_rate_deg_s * kDegToRad;
+}
+
+bool ExcitationMonitor::turns_about(Eigen::Vector3d& axis) const {
+  if (rates_.empty() || last_t_ - rates_.front().t < 0.5 * config_.window_s) return false;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(moment());
+  if (std::sqrt(std::max(es.eigenvalues()(2), 0.0)) < config_.min_rate_deg_s * kDegToRad) return false;
+  axis = es.eigenvectors().col(2).normalized();
+  return true;
 }
 
 }  // namespace fuse

@@ -15,6 +15,12 @@
 namespace fuse {
 
 namespace {
+/// The prior variance left along a held direction of the extrinsic: the information-form backends
+/// need a covariance they can invert, and this keeps the update from moving it (σ 1e-7).
+constexpr double kHeldVariance = 1e-14;
+}  // namespace
+
+namespace {
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
@@ -164,23 +170,45 @@ UpdateResult LidarUpdater::update(MeasurementModel& model, StateHistory& history
     prior.P.col(Idx::kTimeOffset).setZero();
   }
   // The extrinsic, when estimated, is held while the motion does not turn about every axis: its
-  // rows and columns out of the update, its covariance kept for when the motion does.
+  // rows and columns out of the update, its covariance kept for when the motion does. Turning
+  // about one axis a (a vehicle's yaw) shows the LiDAR's tilt against a: with one_axis "tilt"
+  // only the rotation about a and the translation are held then (excitation_monitor.hpp).
   const bool hold_ext = config_.estimate_extrinsic && !excitation_.excited();
-  Eigen::Matrix<double, 6, 6> ext_P;
+  Eigen::Vector3d axis = Eigen::Vector3d::Zero();
+  const bool hold_axis =
+      hold_ext && config_.extrinsic_excitation.one_axis == ExcitationConfig::OneAxis::kTilt && excitation_.turns_about(axis);
+  Eigen::Matrix<double, 6, 6> ext_P, held = Eigen::Matrix<double, 6, 6>::Zero();
   if (hold_ext) {
     counters_.count("extrinsic_held_weak_excitation",
-                    fmt::format("scan at t={:.6f}: the extrinsic is held, the motion turns too little about its weakest axis "
+                    fmt::format("scan at t={:.6f}: the extrinsic is held{}, the motion turns too little about its weakest axis "
                                 "({:.2f} deg/s RMS over the last {} s; estimator.extrinsic_excitation.min_rate_deg_s = {})",
-                                t, excitation_.weakest_rate() * 180.0 / M_PI, config_.extrinsic_excitation.window_s,
+                                t, hold_axis ? fmt::format(" but for its tilt against the turn axis ({:.2f} {:.2f} {:.2f})",
+                                                           axis.x(), axis.y(), axis.z()) : std::string(),
+                                excitation_.weakest_rate() * 180.0 / M_PI, config_.extrinsic_excitation.window_s,
                                 config_.extrinsic_excitation.min_rate_deg_s));
     ext_P = prior.P.block<6, 6>(Idx::kExtRot, Idx::kExtRot);
-    prior.P.middleRows<6>(Idx::kExtRot).setZero();
-    prior.P.middleCols<6>(Idx::kExtRot).setZero();
+    if (hold_axis) {
+      // The rotation error is R_IL·Exp(δθ_IL) (LiDAR side): the axis a is R_ILᵀa there.
+      const Eigen::Vector3d a_L = prior.x.R_IL.transpose() * axis;
+      held.topLeftCorner<3, 3>() = a_L * a_L.transpose();
+      held.bottomRightCorner<3, 3>().setIdentity();
+      const Eigen::Matrix<double, 6, 6> keep = Eigen::Matrix<double, 6, 6>::Identity() - held;
+      prior.P.middleRows<6>(Idx::kExtRot) = keep * prior.P.middleRows<6>(Idx::kExtRot);
+      prior.P.middleCols<6>(Idx::kExtRot) = prior.P.middleCols<6>(Idx::kExtRot) * keep;
+      prior.P.block<6, 6>(Idx::kExtRot, Idx::kExtRot) += kHeldVariance * held;
+    } else {
+      prior.P.middleRows<6>(Idx::kExtRot).setZero();
+      prior.P.middleCols<6>(Idx::kExtRot).setZero();
+    }
   }
   last_update_held_extrinsic_ = hold_ext;
   UpdateResult result = backend.update(prior.x, prior.P, model);
   if (hold_td) prior.P(Idx::kTimeOffset, Idx::kTimeOffset) = td_var;
-  if (hold_ext) prior.P.block<6, 6>(Idx::kExtRot, Idx::kExtRot) = ext_P;
+  if (hold_axis) {
+    prior.P.block<6, 6>(Idx::kExtRot, Idx::kExtRot) += held * ext_P * held - kHeldVariance * held;
+  } else if (hold_ext) {
+    prior.P.block<6, 6>(Idx::kExtRot, Idx::kExtRot) = ext_P;
+  }
   const double bound = config_.time_offset.max_s;
   if (result.updated && std::abs(prior.x.td) > bound) {
     counters_.count("time_offset_at_bound",

@@ -8,7 +8,11 @@
 //   M = mean over the window of ω_k ω_kᵀ,
 // and calls the motion exciting when even the weakest axis turns at min_rate_deg_s RMS or more:
 // √λ_min(M) ≥ min_rate. Below it the extrinsic is held (its rows and columns left out of the
-// update) rather than estimated.
+// update) rather than estimated. A turn about one axis a (√λ_max ≥ min_rate, the eigenvector
+// of λ_max) still shows the LiDAR's tilt against a, R_IL·b = a for the LiDAR's own turn axis b
+// (hand-eye calibration), but not the rotation about a nor a lever arm along a: with
+// one_axis "tilt" only those, and the translation, whose drift along the road is left to map
+// errors, are held.
 #pragma once
 
 #include <Eigen/Core>
@@ -21,6 +25,11 @@ namespace fuse {
 struct ExcitationConfig {
   double window_s = 5.0;        ///< s of scan-end attitudes the rates are taken over
   double min_rate_deg_s = 3.0;  ///< °/s RMS the weakest axis must turn at for the extrinsic to be estimated
+  /// While the motion turns about one axis a only (its strongest axis at min_rate or more, its
+  /// weakest below): "tilt" estimates the extrinsic's rotation about the two axes normal to a
+  /// (the LiDAR's tilt against it, which a turn about a shows) and holds its rotation about a
+  /// and its translation; "hold" holds all of it.
+  enum class OneAxis { kTilt, kHold } one_axis = OneAxis::kTilt;
   void load(ConfigNode& node);
 };
 
@@ -33,9 +42,13 @@ class ExcitationMonitor {
   double weakest_rate() const;
   /// Whether the window spans at least half of window_s and its weakest rate reaches min_rate.
   bool excited() const;
+  /// Whether the window spans at least half of window_s and its strongest axis turns at min_rate
+  /// or more; then `axis` is that axis (body frame, unit).
+  bool turns_about(Eigen::Vector3d& axis) const;
   void reset() { rates_.clear(), have_last_ = false; }
 
  private:
+  Eigen::Matrix3d moment() const;  ///< M over the window (rates_ not empty)
   struct Rate {
     double t;
     Eigen::Vector3d w;
