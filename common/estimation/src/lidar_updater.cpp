@@ -18,9 +18,6 @@ namespace {
 /// The prior variance left along a held direction of the extrinsic: the information-form backends
 /// need a covariance they can invert, and this keeps the update from moving it (σ 1e-7).
 constexpr double kHeldVariance = 1e-14;
-}  // namespace
-
-namespace {
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
