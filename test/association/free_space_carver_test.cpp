@@ -229,10 +229,69 @@ TEST(FreeSpaceCarver, TheMappingPolicyCarvesOnlyWithTheRaysOrigins) {
   EXPECT_EQ(map->size(), wall.size() + stats.inserted);
 }
 
+// Looking back (lookback_s): a wall at x = 20 was seen from the origin at t = 0. At t = 0.1 a car
+// stands at x = 10, where those rays went through; the wall is seen again a little to the side,
+// and a patch behind the wall is new: the car's points are marked, the wall's and what lies
+// behind the wall are not. Scans at or after t, and scans older than lookback_s, mark nothing;
+// nor does any scan mark a point the map has a point beside.
+TEST(FreeSpaceCarver, PointsInSpaceAnEarlierScanSawEmptyAreMarked) {
+  CarveConfig cfg;
+  cfg.lookback_s = 1.0;  // no probation: looking back works alone
+  FreeSpaceCarver carver(cfg);
+  Scene scene;
+  const auto wall = patch({20.0f, -4.0f, -2.0f}, {0.0f, 8.0f, 0.0f}, {0.0f, 0.0f, 4.0f}, 0.1f);
+  scene.map->insert(wall);
+  const auto car = patch({10.0f, -1.0f, -0.5f}, {0.0f, 2.0f, 0.0f}, {0.0f, 0.0f, 1.0f}, 0.1f);
+  const auto wall_again = patch({20.0f, -3.95f, -1.95f}, {0.0f, 7.9f, 0.0f}, {0.0f, 0.0f, 3.9f}, 0.1f);
+  const auto behind = patch({25.0f, -1.0f, -0.5f}, {0.0f, 2.0f, 0.0f}, {0.0f, 0.0f, 1.0f}, 0.1f);
+  std::vector<Eigen::Vector3f> scan = car;
+  scan.insert(scan.end(), wall_again.begin(), wall_again.end());
+  scan.insert(scan.end(), behind.begin(), behind.end());
+  std::vector<std::uint8_t> empty;
+  EXPECT_EQ(carver.seen_empty(0.1, scan, *scene.map, empty), 0u) << "no scan remembered yet";
+
+  const std::vector<Eigen::Vector3f> origins(wall.size(), Eigen::Vector3f::Zero());
+  EXPECT_TRUE(carver.carve(0.0, wall, origins, *scene.map).empty());
+  EXPECT_EQ(carver.seen_empty(0.0, scan, *scene.map, empty), 0u) << "a scan of the same time";
+  EXPECT_EQ(carver.seen_empty(0.1, scan, *scene.map, empty), car.size());
+  ASSERT_EQ(empty.size(), scan.size());
+  for (std::size_t i = 0; i < scan.size(); ++i) EXPECT_EQ(empty[i] != 0, i < car.size()) << "point " << i;
+  EXPECT_EQ(carver.seen_empty(1.05, scan, *scene.map, empty), 0u) << "older than lookback_s";
+  // A point with a map point beside it is where the map says something is: not judged.
+  scene.map->insert(car);
+  EXPECT_EQ(carver.seen_empty(0.1, scan, *scene.map, empty), 0u) << "the car is in the map";
+}
+
+// The mapping policy marks moving points only with carve_lookback_s, and only from the rays of
+// scans given with their origins (trusted ones).
+TEST(FreeSpaceCarver, TheMappingPolicyMarksWhatAnEarlierTrustedScanSawEmpty) {
+  const auto wall = patch({20.0f, -4.0f, -2.0f}, {0.0f, 8.0f, 0.0f}, {0.0f, 0.0f, 4.0f}, 0.1f);
+  const auto car = patch({10.0f, -1.0f, -0.5f}, {0.0f, 2.0f, 0.0f}, {0.0f, 0.0f, 1.0f}, 0.1f);
+  const std::vector<Eigen::Vector3f> origins(wall.size(), Eigen::Vector3f::Zero());
+  for (const double lookback : {0.0, 1.0}) {
+    for (const bool trusted : {true, false}) {
+      MapPolicyConfig cfg;
+      cfg.carve_lookback_s = lookback;
+      auto policy = make_map_policy(cfg);
+      EXPECT_EQ(policy->marks_moving(), lookback > 0.0);
+      auto map = make_spatial_index(SpatialIndexConfig{});
+      policy->apply(0.0, wall, *map, nullptr, nullptr, trusted ? &origins : nullptr);
+      std::vector<std::uint8_t> moving;
+      const bool marks = lookback > 0.0 && trusted;
+      EXPECT_EQ(policy->mark_moving(0.1, car, *map, moving), marks ? car.size() : 0u)
+          << "lookback " << lookback << (trusted ? ", trusted" : ", untrusted");
+      EXPECT_EQ(moving.size(), car.size());
+    }
+  }
+  LocalizationPolicy localization;
+  EXPECT_FALSE(localization.marks_moving());
+}
+
 TEST(FreeSpaceCarver, BadCarveKeysStopWithTheKeyNamed) {
   expect_refused_naming_the_key<MapPolicyConfig>({"carve_s: -1\n", "carve_radius: 0\n", "carve_beyond: 2\n",
                                                    "carve_margin: -0.1\n", "carve_tests: 0\n", "carve_release_s: 0\n",
-                                                   "carve_min_incidence_deg: 90\n", "carve_plane_gap: 0\n"});
+                                                   "carve_min_incidence_deg: 90\n", "carve_plane_gap: 0\n",
+                                                   "carve_lookback_s: -1\n", "carve_lookback_s: 6\n", "carve_lookback_tests: 0\n"});
 }
 
 }  // namespace

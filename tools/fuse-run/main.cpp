@@ -117,6 +117,7 @@ int main(int argc, char** argv) {
             << "\nscan_time_max_ms: " << s.max_ms << "\nscan_cpu_median_ms: " << s.cpu_median_ms
             << "\nscan_cpu_p99_ms: " << s.cpu_p99_ms << "\nscan_cpu_max_ms: " << s.cpu_max_ms << "\n";
   std::cout << "time_offset_s: " << s.time_offset << "\n";
+  std::cout << "moving_points_screened: " << s.moving_screened << "\nmap_points_carved: " << s.map_carved << "\n";
   for (const auto& [reason, n] : s.input_rejected) std::cout << "input_rejected_" << reason << ": " << n << "\n";
   for (const auto& [reason, n] : s.estimator_counts) std::cout << "estimator_" << reason << ": " << n << "\n";
   if (s.initialised) {

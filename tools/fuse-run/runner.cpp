@@ -47,7 +47,7 @@ void write_diagnostics(const std::string& path, const std::vector<ScanReport>& r
                        const std::vector<TrackingStatus>& status) {
   std::ofstream f(path);
   f << "scan,t,updated,constraints,rejected_no_neighbors,rejected_not_planar,rejected_screening,"
-       "min_eig_translation,min_eig_rotation,min_eig_ratio,min_gamma,iterations,converged,map_points,map_inserted,map_pending,map_carved,"
+       "min_eig_translation,min_eig_rotation,min_eig_ratio,min_gamma,iterations,converged,map_points,map_inserted,map_pending,map_carved,moving_screened,"
        "recovery,fit,match_fit,prior_position_std,prior_rotation_std,time_offset_s,tracking,"
        "ext_rx_deg,ext_ry_deg,ext_rz_deg,ext_x,ext_y,ext_z,ext_held\n";
   for (std::size_t i = 0; i < reports.size(); ++i) {
@@ -56,7 +56,7 @@ void write_diagnostics(const std::string& path, const std::vector<ScanReport>& r
       << r.rejected_no_neighbors << ',' << r.rejected_not_planar << ',' << r.rejected_screening << ','
       << std::scientific << std::setprecision(4) << r.min_eig_translation << ',' << r.min_eig_rotation << ',' << r.min_eig_ratio << ','
       << std::fixed << r.min_gamma << ',' << r.iterations << ',' << r.converged << ',' << r.map_points << ','
-      << r.map_inserted << ',' << r.map_pending << ',' << r.map_carved << ',' << r.recovery << ',' << r.fit << ',' << r.match_fit << ',' << r.prior_position_std
+      << r.map_inserted << ',' << r.map_pending << ',' << r.map_carved << ',' << r.moving_screened << ',' << r.recovery << ',' << r.fit << ',' << r.match_fit << ',' << r.prior_position_std
       << ',' << r.prior_rotation_std << ',' << std::setprecision(6) << r.time_offset << ',' << to_string(status[i]);
     const Eigen::Vector3d rv = r.extrinsic_rotation * (180.0 / M_PI);
     f << ',' << rv.x() << ',' << rv.y() << ',' << rv.z() << ',' << r.extrinsic_translation.x() << ','
@@ -226,6 +226,8 @@ RunSummary run_offline(const RunnerConfig& config_in, const std::string& input, 
     // Not yet located in the loaded map: relocalizing, whatever the session's own tracking says.
     status.push_back(estimator.localized() ? estimator.tracking().status() : TrackingStatus::kRelocalizing);
     if (report.updated) ++summary.scans_updated;
+    summary.moving_screened += report.moving_screened;
+    summary.map_carved += report.map_carved;
     summary.scan_ms.push_back(report.ms_total);
     summary.scan_cpu_ms.push_back(report.ms_cpu);
     emit(pose_of(q), false);

@@ -32,6 +32,9 @@ RunnerConfig load_runner_config(const std::string& file, const std::vector<std::
 
 struct RunSummary {
   std::size_t scans = 0, scans_updated = 0, imu_samples = 0;
+  /// Points left out as moving (estimator.map.carve_lookback_s) and map points carved (carve_s),
+  /// over the run.
+  std::size_t moving_screened = 0, map_carved = 0;
   bool initialised = false;
   std::vector<double> scan_ms;  ///< total per-scan estimator time
   double mean_ms = 0.0, p95_ms = 0.0, max_ms = 0.0;

@@ -302,6 +302,7 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
                                 "gap (recovery.min_measured_fraction {:.2f}); the prior stays, the next scan searches",
                                 scan.t_end, raw_.size(), in_range, config_.recovery.min_measured_fraction));
   }
+  if (map_->size() > 0 && !sliver && !report.recovery && map_policy_->marks_moving()) screen_moving(prior.x, report);
   if (map_->size() > 0 && !sliver) {
     UpdateResult result;
     if (report.recovery) {
@@ -574,6 +575,28 @@ UpdateResult LidarUpdater::relocalise(StateHistory& history, double t, ScanRepor
     relocalised_at_ = t;
   }
   return best;
+}
+
+void LidarUpdater::screen_moving(const NavState& prior, ScanReport& report) {
+  // Placed by the prior: a few centimetres off at most against carve_radius.
+  const Eigen::Isometry3d T_WL = prior.T_WI() * prior.T_IL();
+  const Eigen::Matrix3f R = T_WL.linear().cast<float>();
+  const Eigen::Vector3f t = T_WL.translation().cast<float>();
+  points_W_.resize(points_L_.size());
+  for (std::size_t i = 0; i < points_L_.size(); ++i) points_W_[i] = R * points_L_[i] + t;
+  report.moving_screened = map_policy_->mark_moving(report.t, points_W_, *map_, moving_);
+  if (report.moving_screened == 0) return;
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < points_L_.size(); ++i) {
+    if (moving_[i] != 0) continue;
+    points_L_[kept] = points_L_[i];
+    origins_L_[kept] = origins_L_[i];
+    kept_raw_[kept] = kept_raw_[i];
+    ++kept;
+  }
+  points_L_.resize(kept);
+  origins_L_.resize(kept);
+  kept_raw_.resize(kept);
 }
 
 void LidarUpdater::downsample() {

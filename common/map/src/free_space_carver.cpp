@@ -110,7 +110,8 @@ void FreeSpaceCarver::note_hits(double t, const std::vector<Eigen::Vector3f>& en
   }
 }
 
-void FreeSpaceCarver::bin_rays(const std::vector<Eigen::Vector3f>& ends, const std::vector<Eigen::Vector3f>& origins) {
+void FreeSpaceCarver::bin_rays(const std::vector<Eigen::Vector3f>& ends, const std::vector<Eigen::Vector3f>& origins,
+                               RayImage& image) {
   // The path's two ends: the origin farthest from the first one, and the one farthest from it.
   std::size_t ia = 0, ib = 0;
   for (std::size_t i = 0; i < origins.size(); ++i) {
@@ -124,40 +125,40 @@ void FreeSpaceCarver::bin_rays(const std::vector<Eigen::Vector3f>& ends, const s
   const float length = path.norm();
   // Slices no longer than the carve radius: a window widens by the slice's half length.
   const auto radius = static_cast<float>(config_.radius);
-  slices_ = std::clamp(static_cast<int>(std::ceil(length / (2.0f * radius))), 1, kMaxSlices);
+  image.slices = std::clamp(static_cast<int>(std::ceil(length / (2.0f * radius))), 1, kMaxSlices);
   const Eigen::Vector3f dir = length > 0.0f ? Eigen::Vector3f(path / length) : Eigen::Vector3f::Zero();
-  for (int k = 0; k < slices_; ++k) {
-    slice_origin_[k] = a + path * ((static_cast<float>(k) + 0.5f) / static_cast<float>(slices_));
+  for (int k = 0; k < image.slices; ++k) {
+    image.slice_origin[k] = a + path * ((static_cast<float>(k) + 0.5f) / static_cast<float>(image.slices));
   }
   const auto slice_of = [&](const Eigen::Vector3f& o) {
     if (length <= 0.0f) return 0;
     const float f = (o - a).dot(dir) / length;
-    return std::clamp(static_cast<int>(f * static_cast<float>(slices_)), 0, slices_ - 1);
+    return std::clamp(static_cast<int>(f * static_cast<float>(image.slices)), 0, image.slices - 1);
   };
 
   // Rays precomputed (unit direction, the farthest projection they carve), then binned by slice
   // and pixel with a counting sort.
   const auto beyond = static_cast<float>(1.0 + config_.beyond);
   const auto margin = static_cast<float>(config_.margin);
-  start_.assign(static_cast<std::size_t>(slices_) * kPixels + 1, 0);
+  image.start.assign(static_cast<std::size_t>(image.slices) * kPixels + 1, 0);
   bin_.resize(ends.size());
   std::vector<Ray>& rays = unsorted_;
   rays.resize(ends.size());
-  slice_half_ = 0.0f;
+  image.slice_half = 0.0f;
   for (std::size_t i = 0; i < ends.size(); ++i) {
     const Eigen::Vector3f ray = ends[i] - origins[i];
     const float len = ray.norm();
     const int k = slice_of(origins[i]);
-    slice_half_ = std::max(slice_half_, (origins[i] - slice_origin_[k]).norm());
+    image.slice_half = std::max(image.slice_half, (origins[i] - image.slice_origin[k]).norm());
     rays[i] = {origins[i], len > 0.0f ? Eigen::Vector3f(ray / len) : Eigen::Vector3f::Zero(), (len - margin) / beyond, len};
-    const Pixel px = pixel_of(ends[i] - slice_origin_[k]);
+    const Pixel px = pixel_of(ends[i] - image.slice_origin[k]);
     bin_[i] = static_cast<std::uint32_t>(k * kPixels + px.e * kAzimuthPixels + px.a);
-    ++start_[bin_[i] + 1];
+    ++image.start[bin_[i] + 1];
   }
-  for (std::size_t q = 1; q < start_.size(); ++q) start_[q] += start_[q - 1];
-  cursor_.assign(start_.begin(), start_.end() - 1);
-  rays_.resize(ends.size());
-  for (std::size_t i = 0; i < ends.size(); ++i) rays_[cursor_[bin_[i]]++] = rays[i];
+  for (std::size_t q = 1; q < image.start.size(); ++q) image.start[q] += image.start[q - 1];
+  cursor_.assign(image.start.begin(), image.start.end() - 1);
+  image.rays.resize(ends.size());
+  for (std::size_t i = 0; i < ends.size(); ++i) image.rays[cursor_[bin_[i]]++] = rays[i];
 }
 
 bool FreeSpaceCarver::steep_enough(const Eigen::Vector3f& c, const Eigen::Vector3f& u, const SpatialIndex& map,
@@ -172,9 +173,8 @@ bool FreeSpaceCarver::steep_enough(const Eigen::Vector3f& c, const Eigen::Vector
   return std::abs(normal.dot(u)) >= static_cast<float>(std::sin(config_.min_incidence_deg * kPi / 180.0));
 }
 
-bool FreeSpaceCarver::carves(const Eigen::Vector3f& c, const SpatialIndex& map) const {
-  int plane_state = 0;  // 0 not fitted, 1 a plane (normal), 2 no plane
-  Eigen::Vector3f normal = Eigen::Vector3f::Zero();
+bool FreeSpaceCarver::carves(const Eigen::Vector3f& c, const RayImage& image, const SpatialIndex& map, int& plane_state,
+                             Eigen::Vector3f& normal) const {
   const auto radius = static_cast<float>(config_.radius);
   const float r2 = radius * radius;
   const auto gap = static_cast<float>(config_.plane_gap);
@@ -182,24 +182,24 @@ bool FreeSpaceCarver::carves(const Eigen::Vector3f& c, const SpatialIndex& map) 
   // surface test needs length − s_x ≥ gap with |s_x − s| < radius, the margin s < s_max ≤
   // length − margin. Checked before the plane around c is fitted.
   const float min_beyond = std::min(gap - radius, static_cast<float>(config_.margin));
-  for (int k = 0; k < slices_; ++k) {
-    const Eigen::Vector3f d = c - slice_origin_[k];
+  for (int k = 0; k < image.slices; ++k) {
+    const Eigen::Vector3f d = c - image.slice_origin[k];
     const float range = d.norm();
-    if (range <= radius + slice_half_) continue;  // a ray this close to its start: too near to judge
+    if (range <= radius + image.slice_half) continue;  // a ray this close to its start: too near to judge
     // Seen from the slice's origin, a ray passing within `radius` of c and starting within
-    // slice_half_ of that origin points within (radius + slice_half_) / (range − slice_half_)
-    // of c's direction where it passes c, and no farther out beyond it.
-    const float angle = (radius + slice_half_) / (range - slice_half_);
+    // slice_half of that origin points within (radius + slice_half) / (range − slice_half) of
+    // c's direction where it passes c, and no farther out beyond it.
+    const float angle = (radius + image.slice_half) / (range - image.slice_half);
     const Pixel pc = pixel_of(d);
     const int w = std::min(kMaxWindow, static_cast<int>(std::ceil(angle * kPixelsPerRad)));
     const int e_lo = std::max(0, pc.e - w), e_hi = std::min(kElevationPixels - 1, pc.e + w);
     const int wa = std::min(kAzimuthPixels / 2, static_cast<int>(std::ceil(static_cast<float>(w) * inv_cos_rows(e_lo, e_hi))));
-    const std::uint32_t* start = start_.data() + static_cast<std::size_t>(k) * kPixels;
+    const std::uint32_t* start = image.start.data() + static_cast<std::size_t>(k) * kPixels;
     // A row's pixels are consecutive in the counting sort, so the rays of the window's part of
     // a row are one run (two where the window wraps around the azimuth's seam).
     const auto passes = [&](std::uint32_t first, std::uint32_t last) {
       for (std::uint32_t r = first; r < last; ++r) {
-        const Ray& ray = rays_[r];
+        const Ray& ray = image.rays[r];
         const Eigen::Vector3f oc = c - ray.o;
         const float s = oc.dot(ray.u);
         if (s <= 0.0f || oc.squaredNorm() - s * s >= r2) continue;  // the ray does not pass c
@@ -241,9 +241,16 @@ const std::vector<Eigen::Vector3f>& FreeSpaceCarver::carve(double t, const std::
                                                            const SpatialIndex& map) {
   carved_.clear();
   expire(t);
-  if (young_.empty() || ends.empty() || origins.size() != ends.size()) return carved_;
+  if (ends.empty() || origins.size() != ends.size()) return carved_;
+  const bool remember = config_.lookback_s > 0.0;
+  if (young_.empty() && !remember) return carved_;
   note_hits(t, ends);
-  bin_rays(ends, origins);
+  if (remember && !spare_.empty()) {  // reuse an old image's buffers
+    image_ = std::move(spare_.back());
+    spare_.pop_back();
+  }
+  bin_rays(ends, origins, image_);
+  image_.t = t;
   // Every stride-th young point from a phase that turns with each scan: each is tested every
   // stride scans when there are more than max_tests.
   const std::size_t stride = std::max<std::size_t>(1, (young_.size() + config_.max_tests - 1) / config_.max_tests);
@@ -256,14 +263,52 @@ const std::vector<Eigen::Vector3f>& FreeSpaceCarver::carve(double t, const std::
       ++released_;  // hit again and again: a surface that stays
       continue;
     }
-    if (j % stride == phase && carves(y.p, map)) {
+    int plane_state = 0;
+    Eigen::Vector3f normal;
+    if (j % stride == phase && carves(y.p, image_, map, plane_state, normal)) {
       carved_.push_back(y.p);
     } else {
       young_[kept++] = y;
     }
   }
   young_.resize(kept);
+  if (remember) history_.push_back(std::move(image_));
   return carved_;
+}
+
+std::size_t FreeSpaceCarver::seen_empty(double t, const std::vector<Eigen::Vector3f>& points, const SpatialIndex& map,
+                                        std::vector<std::uint8_t>& empty) {
+  empty.assign(points.size(), 0);
+  while (!history_.empty() && history_.front().t < t - config_.lookback_s) {
+    spare_.push_back(std::move(history_.front()));
+    history_.pop_front();
+  }
+  std::size_t earlier = history_.size();  // scans before t only
+  while (earlier > 0 && history_[earlier - 1].t >= t) --earlier;
+  if (earlier == 0 || points.empty()) return 0;
+  // Bounded work: as many scans as lookback_tests point tests allow (one at least), spread over
+  // the lookback from the newest (a place seen empty long before the mover came counts as much).
+  const std::size_t scans = std::clamp<std::size_t>(config_.lookback_tests / points.size(), 1, earlier);
+  const double step = scans > 1 ? static_cast<double>(earlier - 1) / static_cast<double>(scans - 1) : 0.0;
+  std::size_t n = 0;
+  Neighbors nb;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    // A point the map already has a point beside is where the map says something is (a wall
+    // seen again, an edge): whatever a ray passing near it showed, it is not judged.
+    map.knn(points[i], 1, static_cast<float>(config_.radius), nb);
+    if (nb.count > 0) continue;
+    int plane_state = 0;  // the plane around the point, fitted once for all the scans
+    Eigen::Vector3f normal;
+    for (std::size_t j = 0; j < scans; ++j) {
+      const std::size_t k = earlier - 1 - static_cast<std::size_t>(std::lround(step * static_cast<double>(j)));
+      if (carves(points[i], history_[k], map, plane_state, normal)) {
+        empty[i] = 1;
+        ++n;
+        break;
+      }
+    }
+  }
+  return n;
 }
 
 }  // namespace fuse

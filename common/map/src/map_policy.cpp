@@ -9,6 +9,8 @@ namespace fuse {
 
 namespace {
 constexpr double kMaxConfirmS = 30.0;
+/// Each scan kept for carve_lookback_s holds its rays (about 1 MB for 20,000): a bound on memory.
+constexpr double kMaxLookbackS = 5.0;
 constexpr double kMinConfirmCell = 0.05, kMaxConfirmCell = 10.0;
 /// Place keys pack three cell coordinates of this many bits each (±10⁶ cells: ±500 km at 0.5 m).
 constexpr int kKeyBits = 21;
@@ -37,6 +39,10 @@ void MapPolicyConfig::load(ConfigNode& node) {
              "must be in [0, 1]");
   node.get("carve_tests", carve_tests).get("carve_release_s", carve_release_s);
   node.get("carve_min_incidence_deg", carve_min_incidence_deg).get("carve_plane_gap", carve_plane_gap);
+  node.get("carve_lookback_s", carve_lookback_s).get("carve_lookback_tests", carve_lookback_tests);
+  node.check(carve_lookback_tests >= 1, "carve_lookback_tests", "must be >= 1");
+  node.check(std::isfinite(carve_lookback_s) && carve_lookback_s >= 0.0 && carve_lookback_s <= kMaxLookbackS,
+             "carve_lookback_s", "must be in [0, " + std::to_string(static_cast<int>(kMaxLookbackS)) + "] s");
   node.check(std::isfinite(carve_plane_gap) && carve_plane_gap > 0.0 && carve_plane_gap <= 10.0, "carve_plane_gap",
              "must be in (0, 10] m");
   node.check(std::isfinite(carve_min_incidence_deg) && carve_min_incidence_deg >= 0.0 && carve_min_incidence_deg < 90.0,
@@ -79,7 +85,8 @@ void MappingPolicy::forget_stale(double t) {
 MappingPolicy::MappingPolicy(const MapPolicyConfig& config)
     : config_(config), carver_(CarveConfig{config.carve_s, config.carve_radius, config.carve_beyond, config.carve_margin,
                                            config.carve_min_incidence_deg, config.carve_release_s, config.carve_tests,
-                                           config.carve_plane_gap}) {}
+                                           config.carve_plane_gap, config.carve_lookback_s,
+                                           config.carve_lookback_tests}) {}
 
 MapUpdateStats MappingPolicy::apply(double t, const std::vector<Eigen::Vector3f>& world_points, SpatialIndex& map,
                                     const std::vector<float>* nearest_dist2,
@@ -88,7 +95,7 @@ MapUpdateStats MappingPolicy::apply(double t, const std::vector<Eigen::Vector3f>
   MapUpdateStats stats;
   stats.offered = world_points.size();
   const bool carving = config_.carve_s > 0.0;
-  if (carving && origins != nullptr && origins->size() == world_points.size()) {
+  if ((carving || config_.carve_lookback_s > 0.0) && origins != nullptr && origins->size() == world_points.size()) {
     const std::vector<Eigen::Vector3f>& carved = carver_.carve(t, world_points, *origins, map);
     if (!carved.empty()) stats.carved = map.erase(carved);
   }

@@ -82,6 +82,8 @@ class LidarUpdater {
 
  private:
   void downsample();
+  /// Drops the scan's points that the map policy marks as moving (mark_moving, at the prior).
+  void screen_moving(const NavState& prior, ScanReport& report);
   void order_spatially();
   void check_divergence(const ScanReport& report, const StateHistory& history);
   /// Truncated residual cost of the scan's kept points against their constraints at x (below).
@@ -120,6 +122,7 @@ class LidarUpdater {
   // Per-scan buffers reused to avoid allocation on the hot path.
   std::vector<Eigen::Vector3f> raw_, points_L_, points_W_;
   std::vector<Eigen::Vector3f> origins_L_, origins_W_;  ///< where each point's ray started (deskew)
+  std::vector<std::uint8_t> moving_;  ///< per point: where an earlier scan saw empty space
   std::vector<std::uint32_t> in_range_, kept_, kept_raw_;
   std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed_;
   ConstraintSet constraints_;

@@ -43,6 +43,7 @@ struct ScanReport {
   Eigen::Vector3d extrinsic_translation = Eigen::Vector3d::Zero();
   bool extrinsic_held = false;
   std::size_t map_carved = 0;   ///< map points a ray of this scan showed empty (free-space carving)
+  std::size_t moving_screened = 0;  ///< points where an earlier scan saw empty space: left out of the update and the map
   /// Map hold: re-localised, or within recovery.map_hold_distance after it; only the points
   /// within recovery.map_hold_radius of the sensor were offered to the map.
   bool map_held = false;

@@ -33,6 +33,16 @@
 //
 // Work per scan is bounded (`max_tests` young points at most, in turn): a fast drive through
 // new space cannot make a scan slow.
+//
+// Looking back (`lookback_s`, seen_empty()): the same test, the other way in time. The rays of
+// the trusted scans of the last lookback_s are kept; a point of a new scan that one of them
+// passed through lies in space seen empty then, so what is there now came in: a car crossing,
+// an oncoming car, a pedestrian stepping out. The estimator leaves it out of the update and the
+// map. What carving cannot see
+// through again (a mover that leaves the field of view, or stays in front of the ray) this can,
+// when the place was in view before the mover came; a car driving ahead in the same lane hides
+// its own place from both. Bounded too: lookback_tests point tests a scan, against scans spread
+// over lookback_s.
 #pragma once
 
 #include <Eigen/Core>
@@ -55,6 +65,13 @@ struct CarveConfig {
   double release_s = 0.5;    ///< s, a point whose cell is hit over this long leaves probation
   std::size_t max_tests = 20000;  ///< young points tested per scan at most
   double plane_gap = 0.3;  ///< m, how far behind a point's plane a ray must end to carve it
+  /// s: a point about to be inserted is first tested against the rays of the trusted scans of
+  /// this long before (the same test); one they passed through was empty then: a mover, kept out.
+  /// 0: off.
+  double lookback_s = 0.0;
+  /// Point tests per scan at most when looking back: a scan of n points is tested against
+  /// lookback_tests / n of the scans kept (at least one), spread over lookback_s.
+  std::size_t lookback_tests = 20000;
 };
 
 class FreeSpaceCarver {
@@ -68,6 +85,11 @@ class FreeSpaceCarver {
   /// removes them from the map). Points older than probation_s at t leave probation first.
   const std::vector<Eigen::Vector3f>& carve(double t, const std::vector<Eigen::Vector3f>& ends,
                                             const std::vector<Eigen::Vector3f>& origins, const SpatialIndex& map);
+  /// Marks (empty[i] = 1) the points, measured at t, that a ray of a scan within lookback_s before
+  /// t passed through: that space was empty then, so what is there now moved in. Returns how
+  /// many. Uses only the scans given to carve() (trusted ones).
+  std::size_t seen_empty(double t, const std::vector<Eigen::Vector3f>& points, const SpatialIndex& map,
+                         std::vector<std::uint8_t>& empty);
   std::size_t on_probation() const { return young_.size(); }
   std::size_t released() const { return released_; }
 
@@ -87,12 +109,24 @@ class FreeSpaceCarver {
     float s_max;  ///< carves only points projecting onto (0, s_max)
     float length;
   };
+  /// One scan's rays, binned: slice k's rays of pixel q are rays[start[k·P + q] .. start[k·P + q + 1]).
+  struct RayImage {
+    double t = 0.0;
+    int slices = 1;
+    Eigen::Vector3f slice_origin[8];  ///< the point each slice's image is seen from
+    float slice_half = 0.0f;          ///< how far a slice's ray origins lie from it, at most
+    std::vector<std::uint32_t> start;
+    std::vector<Ray> rays;
+  };
   std::uint64_t cell_of(const Eigen::Vector3f& p) const;
   /// Ends the probation of points older than probation_s at t; frees cells no longer hit.
   void expire(double t);
   void note_hits(double t, const std::vector<Eigen::Vector3f>& ends);
-  void bin_rays(const std::vector<Eigen::Vector3f>& ends, const std::vector<Eigen::Vector3f>& origins);
-  bool carves(const Eigen::Vector3f& c, const SpatialIndex& map) const;
+  void bin_rays(const std::vector<Eigen::Vector3f>& ends, const std::vector<Eigen::Vector3f>& origins, RayImage& image);
+  /// Whether a ray of `image` passes through c (the test at the top of this file). plane_state
+  /// and normal cache the plane around c (0 not fitted yet, 1 a plane, 2 none) across calls.
+  bool carves(const Eigen::Vector3f& c, const RayImage& image, const SpatialIndex& map, int& plane_state,
+              Eigen::Vector3f& normal) const;
   /// Whether the ray along u meets the map's surface at c at min_incidence_deg or more (true
   /// where the map around c is not a plane: nothing to graze).
   bool steep_enough(const Eigen::Vector3f& c, const Eigen::Vector3f& u, const SpatialIndex& map, int& plane_state,
@@ -105,12 +139,11 @@ class FreeSpaceCarver {
   std::unordered_map<std::uint64_t, std::uint32_t> cell_index_;  ///< key → cells_ index
   double swept_t_ = -1e300;
   std::size_t scans_ = 0, released_ = 0;
-  // This scan's rays, binned: slice k's rays of pixel q are rays_[start_[k·P + q] .. start_[k·P + q + 1]).
-  int slices_ = 1;
-  Eigen::Vector3f slice_origin_[8];  ///< the point each slice's image is seen from
-  float slice_half_ = 0.0f;          ///< how far a slice's ray origins lie from it, at most
-  std::vector<std::uint32_t> start_, cursor_, bin_;
-  std::vector<Ray> rays_, unsorted_;
+  RayImage image_;                 ///< this scan's rays
+  std::deque<RayImage> history_;   ///< earlier trusted scans' rays within lookback_s, oldest first
+  std::vector<RayImage> spare_;    ///< images no longer needed, their buffers reused
+  std::vector<std::uint32_t> cursor_, bin_;
+  std::vector<Ray> unsorted_;
   std::vector<Eigen::Vector3f> carved_;
 };
 

@@ -58,6 +58,14 @@ struct MapPolicyConfig {
   /// carve_radius of it and ends at least this far behind the plane (it went through the
   /// surface). Points on no plane keep carve_beyond and carve_margin.
   double carve_plane_gap = 0.3;
+  /// s: the points of a scan are tested against the rays of the trusted scans of this long
+  /// before; one that a ray passed through (the carving test) lies in space seen empty then: a
+  /// mover that came in (mark_moving), left out of the update and the map. 0: off. Needs no
+  /// carve_s.
+  double carve_lookback_s = 0.0;
+  /// Point tests per scan at most for carve_lookback_s: a scan of n points is tested against
+  /// carve_lookback_tests / n of the earlier scans (at least one), spread over the lookback.
+  std::size_t carve_lookback_tests = 20000;
   void load(ConfigNode& node);
 };
 
@@ -84,6 +92,16 @@ class MapPolicy {
                                std::vector<Eigen::Vector3f>* inserted = nullptr,
                                const std::vector<Eigen::Vector3f>* origins = nullptr) = 0;
   virtual std::string name() const = 0;
+  /// Whether mark_moving() can find anything (a policy that keeps the rays of earlier scans).
+  virtual bool marks_moving() const { return false; }
+  /// Marks (moving[i] = 1) the points of a scan measured at t, in the world frame, that lie
+  /// where an earlier scan saw empty space; returns how many. Only a policy that remembers rays
+  /// (carve_lookback_s) marks any.
+  virtual std::size_t mark_moving(double /*t*/, const std::vector<Eigen::Vector3f>& world_points,
+                                  const SpatialIndex& /*map*/, std::vector<std::uint8_t>& moving) {
+    moving.assign(world_points.size(), 0);
+    return 0;
+  }
 };
 
 class MappingPolicy final : public MapPolicy {
@@ -94,6 +112,11 @@ class MappingPolicy final : public MapPolicy {
                        std::vector<Eigen::Vector3f>* inserted = nullptr,
                        const std::vector<Eigen::Vector3f>* origins = nullptr) override;
   std::string name() const override { return "mapping"; }
+  bool marks_moving() const override { return config_.carve_lookback_s > 0.0; }
+  std::size_t mark_moving(double t, const std::vector<Eigen::Vector3f>& world_points, const SpatialIndex& map,
+                          std::vector<std::uint8_t>& moving) override {
+    return carver_.seen_empty(t, world_points, map, moving);
+  }
   std::size_t places_pending() const { return places_.size(); }
   std::size_t points_on_probation() const { return carver_.on_probation(); }
 
