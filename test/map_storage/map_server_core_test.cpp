@@ -360,7 +360,8 @@ TEST(MapServerConfig, LoadsValidatesAndRefusesUnknownKeys) {
       {"retry_interval_s: 0\n", "retry_interval_s"},
       {"retry_interval_s: 1e9\n", "retry_interval_s"},
       {"retry_interval_s: .nan\n", "retry_interval_s"},
-      {"policy: {carve_s: 2}\n", "carve_s"}};  // observations carry no ray origins
+      {"policy: {carve_s: 2}\n", "carve_s"},  // observations carry no ray origins
+      {"policy: {carve_lookback_s: 1}\n", "carve_lookback_s"}};
   for (const auto& [text, key] : bad) {
     MapServerConfig c;
     ConfigNode n = ConfigNode::from_string(text);

@@ -45,6 +45,9 @@ void MapServerConfig::load(ConfigNode& node) {
   node.check(policy.carve_s == 0.0, "policy.carve_s",
              "must be 0: the map server does not carve free space (its observations carry no ray origins); "
              "carving runs in the estimator (estimator.map.carve_s)");
+  node.check(policy.carve_lookback_s == 0.0, "policy.carve_lookback_s",
+             "must be 0: the map server sees no rays to look back on; fuse-update leaves moving points out of "
+             "the observations it publishes (estimator.map.carve_lookback_s)");
   // With a trailing separator on both, "map", "./map" and "map/" compare equal.
   node.check((std::filesystem::path(saved_directory) / "").lexically_normal() !=
                  (std::filesystem::path(directory) / "").lexically_normal(),

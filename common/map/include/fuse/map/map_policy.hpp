@@ -5,7 +5,9 @@
 //                 place has been seen for that long (moving objects stay out of the map);
 //                 with `carve_s` > 0, a point inserted less than carve_s ago is taken out again
 //                 when a later ray passes through it (free-space carving: what a car or a
-//                 pedestrian left behind when it moved on);
+//                 pedestrian left behind when it moved on); with `carve_lookback_s` > 0, a point
+//                 of a new scan where an earlier scan's ray went through is a mover
+//                 (mark_moving), left out of the update and the map;
 //   localization: the map is fixed; observations only serve association.
 #pragma once
 
