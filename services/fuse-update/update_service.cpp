@@ -412,6 +412,12 @@ UpdateService::Outcome UpdateService::process(LidarScan& scan) {
     publish_skipped(scan);
     return Outcome::kDone;
   }
+  if (report.moving_screened > 0) {
+    // Points of the scan left out of the update and the observation as moving
+    // (estimator.map.carve_lookback_s): counted where health shows the service's counters.
+    std::lock_guard<std::mutex> lock(mutex_);
+    counters_.add("moving_points_screened", report.moving_screened);
+  }
   const StateQuery q = history.query(scan.t_end);
   Posterior post{scan.t_end, scan.sequence, q.x, q.P};
   if (report.updated) {

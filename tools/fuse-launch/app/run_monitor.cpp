@@ -26,7 +26,7 @@ const std::map<std::string, std::vector<std::string>>& summary_counters() {
       {"fuse-update",
        {"scans_processed", "scan_before_init", "scans_already_corrected", "scans_older_than_state", "scans_dropped_backlog",
         "history_wait_timeout", "history_refused", "recovery_scans", "recovery_ambiguous", "diverged", "observations_resent",
-        "observations_given_up"}},
+        "observations_given_up", "moving_points_screened"}},
       {"fuse-map", {"map_observations_applied", "journal_errors", "pending_dropped", "pending_observations"}},
       {"fuse-viz", {"connections", "messages_sent", "messages_dropped_slow_client", "client_stalls", "client_requests_bad"}},
   };

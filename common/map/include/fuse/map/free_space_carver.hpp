@@ -38,11 +38,12 @@
 // the trusted scans of the last lookback_s are kept; a point of a new scan that one of them
 // passed through lies in space seen empty then, so what is there now came in: a car crossing,
 // an oncoming car, a pedestrian stepping out. The estimator leaves it out of the update and the
-// map. What carving cannot see
-// through again (a mover that leaves the field of view, or stays in front of the ray) this can,
-// when the place was in view before the mover came; a car driving ahead in the same lane hides
-// its own place from both. Bounded too: lookback_tests point tests a scan, against scans spread
-// over lookback_s.
+// map. Only a point with no map point within radius is judged: beside a map point (a wall seen
+// again, a door frame) a ray passing close by proves nothing. What carving cannot see through
+// again (a mover that leaves the field of view, or stays in front of the ray) this can, when the
+// place was in view before the mover came; a car driving ahead in the same lane hides its own
+// place from both. Bounded too: lookback_tests point tests a scan, against scans spread over
+// lookback_s.
 #pragma once
 
 #include <Eigen/Core>
@@ -65,8 +66,8 @@ struct CarveConfig {
   double release_s = 0.5;    ///< s, a point whose cell is hit over this long leaves probation
   std::size_t max_tests = 20000;  ///< young points tested per scan at most
   double plane_gap = 0.3;  ///< m, how far behind a point's plane a ray must end to carve it
-  /// s: a point about to be inserted is first tested against the rays of the trusted scans of
-  /// this long before (the same test); one they passed through was empty then: a mover, kept out.
+  /// s: the rays of the trusted scans of this long before are kept; a new point one of them
+  /// passed through (the same test) lies where the space was empty then: a mover (seen_empty).
   /// 0: off.
   double lookback_s = 0.0;
   /// Point tests per scan at most when looking back: a scan of n points is tested against
