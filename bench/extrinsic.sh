@@ -61,7 +61,8 @@ for sc in "${SCENARIOS[@]}"; do
     --set "estimator.initial_covariance.extrinsic_translation_std=$(awk -v m="$TRANS" 'BEGIN{printf "%.4f", m / 100}')" "${EXTRA[@]}" > "$run.txt" 2>&1 || st="exit $?"
   ate=nan
   if $BIN/fuse-eval --gt "$sim/groundtruth.tum" --est "$run/trajectory.tum" > "$run.eval" 2>&1; then ate=$(get ate_rmse_m "$run.eval"); fi
-  # diagnostics.csv: ext_rx_deg..ext_rz_deg (the rotation vector, degrees), ext_x..ext_z, ext_held.
+  # diagnostics.csv: ext_rx_deg..ext_rz_deg (the rotation vector, degrees), ext_x..ext_z, ext_held
+  # (0 estimated, 1 held, 2 held but for the tilt).
   row=$(awk -F, -v x="$qx" -v y="$qy" -v z="$qz" -v w="$qw" -v tx="$tx" -v ty="$ty" -v tz="$tz" '
     NR == 1 { for (i = 1; i <= NF; ++i) col[$i] = i; next }
     {
@@ -76,10 +77,11 @@ for sc in "${SCENARIOS[@]}"; do
       cell = sprintf("%.2f° / %.1f cm", rot, trans)
       for (k = 1; k <= 3; ++k) if (t - t0 <= mark[k] + 1e-6) at[k] = cell
       if (rot > 0.5 || trans > 2) settled = "never"; else if (settled == "never" || settled == "") settled = sprintf("%.0f s", t - t0)
-      held += $col["ext_held"]; ++n; last = cell
+      held += $col["ext_held"] != 0; tilt += $col["ext_held"] == 2; ++n; last = cell  # 1 all held, 2 held but the tilt
     }
     BEGIN { mark[1] = 10; mark[2] = 30; mark[3] = 60 }
     END { for (k = 1; k <= 3; ++k) if (t - t0 < mark[k]) at[k] = "–"
-          printf "%.0f %% | %s | %s | %s | %s | %s", 100 * held / n, at[1], at[2], at[3], last, settled }' "$run/diagnostics.csv")
+          printf "%.0f %%%s | %s | %s | %s | %s | %s", 100 * held / n, tilt > 0 ? sprintf(" (tilt estimated on %.0f %%)", 100 * tilt / n) : "",
+                 at[1], at[2], at[3], last, settled }' "$run/diagnostics.csv")
   printf "| %s | %s | %s | %s° / %s cm | %s | %s | %s |\n" "$sc" "$LIDAR" "$SEED" "$ROT" "$TRANS" "$row" "$ate" "$st"
 done

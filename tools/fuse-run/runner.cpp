@@ -60,7 +60,7 @@ void write_diagnostics(const std::string& path, const std::vector<ScanReport>& r
       << ',' << r.prior_rotation_std << ',' << std::setprecision(6) << r.time_offset << ',' << to_string(status[i]);
     const Eigen::Vector3d rv = r.extrinsic_rotation * (180.0 / M_PI);
     f << ',' << rv.x() << ',' << rv.y() << ',' << rv.z() << ',' << r.extrinsic_translation.x() << ','
-      << r.extrinsic_translation.y() << ',' << r.extrinsic_translation.z() << ',' << r.extrinsic_held << '\n';
+      << r.extrinsic_translation.y() << ',' << r.extrinsic_translation.z() << ',' << static_cast<int>(r.extrinsic_held) << '\n';
   }
 }
 

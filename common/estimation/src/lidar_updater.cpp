@@ -185,6 +185,7 @@ UpdateResult LidarUpdater::update(MeasurementModel& model, StateHistory& history
                                 config_.extrinsic_excitation.min_rate_deg_s));
     ext_P = prior.P.block<6, 6>(Idx::kExtRot, Idx::kExtRot);
     if (hold_axis) {
+      counters_.add("extrinsic_held_but_tilt");  // of the scans held, those estimating the tilt (logged above)
       // The rotation error is R_IL·Exp(δθ_IL) (LiDAR side): the axis a is R_ILᵀa there.
       const Eigen::Vector3d a_L = prior.x.R_IL.transpose() * axis;
       held.topLeftCorner<3, 3>() = a_L * a_L.transpose();
@@ -198,7 +199,7 @@ UpdateResult LidarUpdater::update(MeasurementModel& model, StateHistory& history
       prior.P.middleCols<6>(Idx::kExtRot).setZero();
     }
   }
-  last_update_held_extrinsic_ = hold_ext;
+  last_extrinsic_hold_ = !hold_ext ? ExtrinsicHold::kNone : hold_axis ? ExtrinsicHold::kTilt : ExtrinsicHold::kAll;
   UpdateResult result = backend.update(prior.x, prior.P, model);
   if (hold_td) prior.P(Idx::kTimeOffset, Idx::kTimeOffset) = td_var;
   if (hold_axis) {
@@ -336,7 +337,7 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
   T_WL_ = x.T_WI() * x.T_IL();
   report.extrinsic_rotation = so3::Log(x.R_IL);
   report.extrinsic_translation = x.p_IL;
-  report.extrinsic_held = report.updated && last_update_held_extrinsic_;
+  report.extrinsic_held = report.updated ? last_extrinsic_hold_ : ExtrinsicHold::kNone;
   if (report.updated && config_.estimate_extrinsic) excitation_.add(scan.t_end, x.R);
   const Eigen::Isometry3d& T_WL = T_WL_;
   const Eigen::Matrix3f R = T_WL.linear().cast<float>();

@@ -114,7 +114,7 @@ class LidarUpdater {
   /// When the last re-localisation was taken: the time offset is held for a while after it.
   double relocalised_at_ = -std::numeric_limits<double>::infinity();
   ExcitationMonitor excitation_;  ///< whether the motion lets the extrinsic be estimated
-  bool last_update_held_extrinsic_ = false;
+  ExtrinsicHold last_extrinsic_hold_ = ExtrinsicHold::kNone;
   /// World position of the last re-localised scan while its map hold lasts (recovery.map_hold_distance).
   std::optional<Eigen::Vector3d> hold_from_;
   Counters counters_;

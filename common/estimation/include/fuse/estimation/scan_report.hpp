@@ -8,6 +8,14 @@
 
 namespace fuse {
 
+/// How much of the extrinsic's estimate a scan's update held (estimator.extrinsic_excitation);
+/// the values are diagnostics.csv's ext_held column.
+enum class ExtrinsicHold : int {
+  kNone = 0,  ///< estimated (or not estimated at all: estimate_extrinsic false)
+  kAll = 1,   ///< held whole: the motion turns too little about its weakest axis
+  kTilt = 2,  ///< held but for the tilt against the one axis the motion turns about (one_axis: tilt)
+};
+
 /// Per-scan diagnostics and timing.
 struct ScanReport {
   double t = 0.0;
@@ -38,10 +46,10 @@ struct ScanReport {
   /// or space seen for the first time).
   std::size_t map_pending = 0;
   /// The extrinsic T_imu_lidar after this scan: rotation vector (rad) and translation (m), and
-  /// whether its estimate was held for weak excitation (estimator.extrinsic_excitation).
+  /// how much of its estimate was held for weak excitation (estimator.extrinsic_excitation).
   Eigen::Vector3d extrinsic_rotation = Eigen::Vector3d::Zero();
   Eigen::Vector3d extrinsic_translation = Eigen::Vector3d::Zero();
-  bool extrinsic_held = false;
+  ExtrinsicHold extrinsic_held = ExtrinsicHold::kNone;
   std::size_t map_carved = 0;   ///< map points a ray of this scan showed empty (free-space carving)
   std::size_t moving_screened = 0;  ///< points where an earlier scan saw empty space: left out of the update and the map
   /// Map hold: re-localised, or within recovery.map_hold_distance after it; only the points
