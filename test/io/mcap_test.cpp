@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <map>
 #include <random>
+#include <vector>
 
 #include "fuse/io/compression.hpp"
 #include "fuse/io/crc32.hpp"
@@ -23,6 +24,31 @@ const std::string kNav2 = "recordings/nav2_turtlebot.mcap";
 TEST(Crc32, KnownValue) {
   // Standard check value of CRC-32/ISO-HDLC for "123456789".
   EXPECT_EQ(crc32("123456789", 9), 0xCBF43926u);
+}
+
+// The word-at-a-time update against the definition (one bit at a time), over lengths around the
+// 8-byte step, unaligned starts and updates split at odd places.
+TEST(Crc32, MatchesTheBitwiseDefinition) {
+  const auto bitwise = [](const std::uint8_t* p, std::size_t n) {
+    std::uint32_t c = 0xFFFFFFFFu;
+    for (std::size_t i = 0; i < n; ++i) {
+      c ^= p[i];
+      for (int b = 0; b < 8; ++b) c = (c & 1u) ? (0xEDB88320u ^ (c >> 1)) : (c >> 1);
+    }
+    return c ^ 0xFFFFFFFFu;
+  };
+  std::vector<std::uint8_t> data(300);
+  std::uint32_t x = 12345;
+  for (auto& b : data) b = static_cast<std::uint8_t>((x = x * 1664525u + 1013904223u) >> 24);
+  for (std::size_t start = 0; start < 9; ++start) {
+    for (std::size_t n = 0; start + n <= data.size(); n += (n < 40 ? 1 : 37)) {
+      EXPECT_EQ(crc32(data.data() + start, n), bitwise(data.data() + start, n)) << "start " << start << ", " << n << " bytes";
+      Crc32 split;
+      split.update(data.data() + start, n / 3);
+      split.update(data.data() + start + n / 3, n - n / 3);
+      EXPECT_EQ(split.value(), bitwise(data.data() + start, n)) << "split, start " << start << ", " << n << " bytes";
+    }
+  }
 }
 
 // Reads every message of a real rosbag2 file and checks counts and time range against the
@@ -161,6 +187,30 @@ TEST_P(McapRoundTrip, WritesAndReadsBack) {
       EXPECT_NO_THROW(r.verify());
     }
   }
+}
+
+// One output buffer for chunk after chunk, as the reader uses it: a large chunk, then a small
+// one into the large one's capacity, then a large one again; a truncated chunk is an error
+// after the buffer has grown.
+TEST_P(McapRoundTrip, DecompressesIntoAReusedBuffer) {
+  const auto bytes = [](std::size_t n, std::uint8_t seed) {
+    std::vector<std::uint8_t> v(n);
+    for (std::size_t i = 0; i < n; ++i) v[i] = static_cast<std::uint8_t>((i * 7 + seed) % 251 ^ (i >> 9));
+    return v;
+  };
+  const char* name = compression_name(GetParam());
+  std::vector<std::uint8_t> out;
+  for (const auto& [n, seed] : {std::pair<std::size_t, std::uint8_t>{1 << 20, 1}, {1000, 2}, {300000, 3}}) {
+    const auto plain = bytes(n, seed);
+    const auto packed = compress(GetParam(), plain.data(), plain.size());
+    decompress_into(name, packed.data(), packed.size(), plain.size(), "chunk", out);
+    EXPECT_EQ(out, plain) << n << " bytes";
+  }
+  EXPECT_GE(out.capacity(), std::size_t{1} << 20) << "the first chunk's buffer is kept";
+  const auto plain = bytes(5000, 5);
+  const auto packed = compress(GetParam(), plain.data(), plain.size());
+  EXPECT_THROW(decompress_into(name, packed.data(), packed.size() - 1, plain.size(), "chunk", out), InputError);
+  EXPECT_THROW(decompress_into(name, packed.data(), packed.size(), plain.size() + 1, "chunk", out), InputError);
 }
 
 INSTANTIATE_TEST_SUITE_P(AllCompressions, McapRoundTrip,

@@ -21,17 +21,23 @@ constexpr std::size_t kInitialOutputBytes = 1u << 16;
   throw InputError(context + ": " + what);
 }
 
+/// Sizes `out` for a new decode: what it already holds (a buffer reused from the last chunk
+/// decodes into its capacity without allocating), capped at the declared size.
+void start_output(std::vector<std::uint8_t>& out, std::uint64_t expected) {
+  out.resize(static_cast<std::size_t>(std::min<std::uint64_t>(out.capacity(), expected)));
+}
+
 /// Grows `out` (doubling, capped at `limit`) when the decoder has filled it.
 void grow(std::vector<std::uint8_t>& out, std::uint64_t limit) {
   const std::size_t next = std::max<std::size_t>(kInitialOutputBytes, out.size() * 2);
   out.resize(static_cast<std::size_t>(std::min<std::uint64_t>(next, limit)));
 }
 
-std::vector<std::uint8_t> zstd_decompress(const std::uint8_t* data, std::size_t size, std::uint64_t expected,
-                                          const std::string& context) {
+void zstd_decompress(const std::uint8_t* data, std::size_t size, std::uint64_t expected, const std::string& context,
+                     std::vector<std::uint8_t>& out) {
   std::unique_ptr<ZSTD_DCtx, decltype(&ZSTD_freeDCtx)> dctx(ZSTD_createDCtx(), &ZSTD_freeDCtx);
   if (!dctx) throw std::bad_alloc();
-  std::vector<std::uint8_t> out;
+  start_output(out, expected);
   ZSTD_inBuffer in{data, size, 0};
   std::size_t produced = 0;
   for (;;) {
@@ -52,15 +58,14 @@ std::vector<std::uint8_t> zstd_decompress(const std::uint8_t* data, std::size_t 
     fail(context, "zstd data decompresses to " + std::to_string(produced) + " bytes, declared " + std::to_string(expected));
   }
   out.resize(produced);
-  return out;
 }
 
-std::vector<std::uint8_t> lz4_decompress(const std::uint8_t* data, std::size_t size, std::uint64_t expected,
-                                         const std::string& context) {
+void lz4_decompress(const std::uint8_t* data, std::size_t size, std::uint64_t expected, const std::string& context,
+                    std::vector<std::uint8_t>& out) {
   LZ4F_dctx* raw = nullptr;
   if (LZ4F_isError(LZ4F_createDecompressionContext(&raw, LZ4F_VERSION))) throw std::bad_alloc();
   std::unique_ptr<LZ4F_dctx, decltype(&LZ4F_freeDecompressionContext)> dctx(raw, &LZ4F_freeDecompressionContext);
-  std::vector<std::uint8_t> out;
+  start_output(out, expected);
   std::size_t consumed = 0, produced = 0;
   for (;;) {
     if (produced == out.size()) {
@@ -80,7 +85,6 @@ std::vector<std::uint8_t> lz4_decompress(const std::uint8_t* data, std::size_t s
     fail(context, "lz4 data decompresses to " + std::to_string(produced) + " bytes, declared " + std::to_string(expected));
   }
   out.resize(produced);
-  return out;
 }
 
 }  // namespace
@@ -114,8 +118,8 @@ std::vector<std::uint8_t> compress(Compression c, const std::uint8_t* data, std:
   return out;
 }
 
-std::vector<std::uint8_t> decompress(const std::string& name, const std::uint8_t* data, std::size_t size,
-                                     std::uint64_t uncompressed_size, const std::string& context) {
+void decompress_into(const std::string& name, const std::uint8_t* data, std::size_t size, std::uint64_t uncompressed_size,
+                     const std::string& context, std::vector<std::uint8_t>& out) {
   if (uncompressed_size > kMaxUncompressedChunkBytes) {
     fail(context, "declared uncompressed size " + std::to_string(uncompressed_size) + " exceeds the limit of " +
                       std::to_string(kMaxUncompressedChunkBytes) + " bytes");
@@ -124,15 +128,24 @@ std::vector<std::uint8_t> decompress(const std::string& name, const std::uint8_t
     if (size != uncompressed_size) {
       fail(context, "uncompressed chunk holds " + std::to_string(size) + " bytes, declared " + std::to_string(uncompressed_size));
     }
-    return std::vector<std::uint8_t>(data, data + size);
+    out.assign(data, data + size);
+    return;
   }
   if (uncompressed_size == 0) {
     if (size != 0) fail(context, "compressed data present but declared uncompressed size is 0");
-    return {};
+    out.clear();
+    return;
   }
-  if (name == "zstd") return zstd_decompress(data, size, uncompressed_size, context);
-  if (name == "lz4") return lz4_decompress(data, size, uncompressed_size, context);
+  if (name == "zstd") return zstd_decompress(data, size, uncompressed_size, context, out);
+  if (name == "lz4") return lz4_decompress(data, size, uncompressed_size, context, out);
   fail(context, "unsupported compression '" + name + "' (supported: zstd, lz4, none)");
+}
+
+std::vector<std::uint8_t> decompress(const std::string& name, const std::uint8_t* data, std::size_t size,
+                                     std::uint64_t uncompressed_size, const std::string& context) {
+  std::vector<std::uint8_t> out;
+  decompress_into(name, data, size, uncompressed_size, context, out);
+  return out;
 }
 
 }  // namespace fuse::io

@@ -91,16 +91,21 @@ void McapReader::enter_salvage(const std::string& reason) {
 }
 
 std::vector<std::uint8_t> McapReader::read_at(std::uint64_t offset, std::uint64_t n, const std::string& what) {
+  std::vector<std::uint8_t> buf;
+  read_into(offset, n, what, buf);
+  return buf;
+}
+
+void McapReader::read_into(std::uint64_t offset, std::uint64_t n, const std::string& what, std::vector<std::uint8_t>& buf) {
   if (offset > size_ || n > size_ - offset) {
     throw InputError(path_ + ": " + what + at(offset) + " needs " + std::to_string(n) + " bytes but the file ends at " +
                      std::to_string(size_) + " (truncated or corrupt length)");
   }
-  std::vector<std::uint8_t> buf(static_cast<std::size_t>(n));
+  buf.resize(static_cast<std::size_t>(n));
   in_.clear();
   in_.seekg(static_cast<std::streamoff>(offset));
   in_.read(reinterpret_cast<char*>(buf.data()), static_cast<std::streamsize>(n));
   if (static_cast<std::uint64_t>(in_.gcount()) != n) throw InputError(path_ + ": read error in " + what + at(offset));
-  return buf;
 }
 
 std::optional<std::string> McapReader::read_footer() {
@@ -330,8 +335,8 @@ void McapReader::scan_message_block(const std::vector<std::uint8_t>& record, std
   };
   if (op == static_cast<std::uint8_t>(Op::kChunk)) {
     mcap::ChunkHeader h;
-    const auto records = chunk_records(record, pos, h);  // throws on a CRC mismatch before any parsing
-    parse_records(records.data(), records.size(), where, track);
+    const auto [records, n] = chunk_records(record, pos, h);  // throws on a CRC mismatch before any parsing
+    parse_records(records, n, where, track);
     block.chunk = true;
     if (block.has_messages && (block.start_time < h.message_start_time || block.end_time > h.message_end_time)) {
       throw InputError(where + ": messages lie outside the chunk's declared time range");
@@ -413,16 +418,21 @@ void McapReader::parse_records(const std::uint8_t* data, std::size_t size, const
   }
 }
 
-std::vector<std::uint8_t> McapReader::chunk_records(const std::vector<std::uint8_t>& record, std::uint64_t offset,
-                                                    mcap::ChunkHeader& h) {
+std::pair<const std::uint8_t*, std::size_t> McapReader::chunk_records(const std::vector<std::uint8_t>& record,
+                                                                      std::uint64_t offset, mcap::ChunkHeader& h) {
   const std::string where = path_ + ": Chunk record" + at(offset);
   ByteReader r(record.data() + mcap::kRecordPrefixSize, record.size() - mcap::kRecordPrefixSize, where);
   h = mcap::parse_chunk_header(r);
   if (h.message_start_time > h.message_end_time) r.fail("message_start_time after message_end_time");
-  auto records = decompress(h.compression, record.data() + mcap::kRecordPrefixSize + h.records_offset,
-                            static_cast<std::size_t>(h.records_size), h.uncompressed_size, where);
+  const std::uint8_t* stored = record.data() + mcap::kRecordPrefixSize + h.records_offset;
+  const auto stored_size = static_cast<std::size_t>(h.records_size);
+  std::pair<const std::uint8_t*, std::size_t> records{stored, stored_size};
+  if (!h.compression.empty() || stored_size != h.uncompressed_size) {  // a size mismatch: decompress_into names it
+    decompress_into(h.compression, stored, stored_size, h.uncompressed_size, where, records_buffer_);
+    records = {records_buffer_.data(), records_buffer_.size()};
+  }
   if (h.uncompressed_crc != 0) {
-    const std::uint32_t computed = crc32(records.data(), records.size());
+    const std::uint32_t computed = crc32(records.first, records.second);
     if (computed != h.uncompressed_crc) {
       throw InputError(where + ": CRC mismatch of the uncompressed records (recorded " + std::to_string(h.uncompressed_crc) +
                        ", computed " + std::to_string(computed) + ")");
@@ -454,7 +464,8 @@ void McapReader::load(const Block& block, Loaded& loaded) {
   ++blocks_loaded_;
   loaded.block = &block;
   const std::string where = path_ + ": " + (block.chunk ? "Chunk record" : "records") + at(block.offset);
-  auto record = read_at(block.offset, block.length, block.chunk ? "Chunk record" : "records");
+  read_into(block.offset, block.length, block.chunk ? "Chunk record" : "records", block_buffer_);
+  const std::vector<std::uint8_t>& record = block_buffer_;
   auto keep = [&](const mcap::MessageHeader& h, const std::uint8_t* data, std::size_t n) {
     if (h.log_time < block.start_time || h.log_time > block.end_time) {
       throw InputError(where + ": message log_time " + std::to_string(h.log_time) + " outside the indexed range " +
@@ -477,8 +488,8 @@ void McapReader::load(const Block& block, Loaded& loaded) {
                        std::to_string(block.length - mcap::kRecordPrefixSize));
     }
     mcap::ChunkHeader h;
-    const auto records = chunk_records(record, block.offset, h);
-    parse_records(records.data(), records.size(), where, keep);
+    const auto [records, n] = chunk_records(record, block.offset, h);
+    parse_records(records, n, where, keep);
   } else {
     parse_records(record.data(), record.size(), where, keep);
   }

@@ -23,5 +23,10 @@ std::vector<std::uint8_t> compress(Compression c, const std::uint8_t* data, std:
 /// size alone). Unknown compression, corrupt data or a size mismatch -> InputError naming `context`.
 std::vector<std::uint8_t> decompress(const std::string& name, const std::uint8_t* data, std::size_t size,
                                      std::uint64_t uncompressed_size, const std::string& context);
+/// The same into `out`, whose capacity is reused (a reader decoding chunk after chunk into one
+/// buffer allocates, and faults its pages in, only for the largest). On an error `out` holds
+/// nothing meaningful.
+void decompress_into(const std::string& name, const std::uint8_t* data, std::size_t size, std::uint64_t uncompressed_size,
+                     const std::string& context, std::vector<std::uint8_t>& out);
 
 }  // namespace fuse::io

@@ -21,6 +21,7 @@
 #include <queue>
 #include <string>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 #include "fuse/io/crc32.hpp"
@@ -105,6 +106,8 @@ class McapReader {
   };
 
   std::vector<std::uint8_t> read_at(std::uint64_t offset, std::uint64_t n, const std::string& what);
+  /// The same into `buf`, whose capacity is reused.
+  void read_into(std::uint64_t offset, std::uint64_t n, const std::string& what, std::vector<std::uint8_t>& buf);
   void read_header();
   /// Reads the Footer; returns why the file has no usable one (then: salvage), or nullopt.
   std::optional<std::string> read_footer();
@@ -130,8 +133,10 @@ class McapReader {
   /// Channel records, passes each Message to `sink`, ignores other records.
   void parse_records(const std::uint8_t* data, std::size_t size, const std::string& where, const MessageSink& sink);
   /// Decompresses and CRC-checks one whole Chunk record (prefix included) read at `offset`.
-  std::vector<std::uint8_t> chunk_records(const std::vector<std::uint8_t>& record, std::uint64_t offset,
-                                          mcap::ChunkHeader& header);
+  /// Returns its records: inside `record` when the chunk is not compressed, else in
+  /// records_buffer_ (valid until the next call).
+  std::pair<const std::uint8_t*, std::size_t> chunk_records(const std::vector<std::uint8_t>& record, std::uint64_t offset,
+                                                            mcap::ChunkHeader& header);
   void load(const Block& block, Loaded& loaded);
   McapMessage take(Loaded& loaded);
   /// End of iteration: false, or in salvage mode the InputError reporting the truncation.
@@ -139,6 +144,8 @@ class McapReader {
 
   std::string path_;
   std::ifstream in_;
+  /// Reused from block to block: the record read (load()) and a chunk's decompressed records.
+  std::vector<std::uint8_t> block_buffer_, records_buffer_;
   std::uint64_t size_ = 0;
   std::uint64_t header_end_ = 0;  ///< first byte after the Header record
   std::uint64_t footer_pos_ = 0;
