@@ -100,6 +100,11 @@ const char* compression_name(Compression c) {
 
 std::vector<std::uint8_t> compress(Compression c, const std::uint8_t* data, std::size_t size) {
   std::vector<std::uint8_t> out;
+  compress_into(c, data, size, out);
+  return out;
+}
+
+void compress_into(Compression c, const std::uint8_t* data, std::size_t size, std::vector<std::uint8_t>& out) {
   if (c == Compression::kZstd) {
     out.resize(ZSTD_compressBound(size));
     const std::size_t n = ZSTD_compress(out.data(), out.size(), data, size, kZstdLevel);
@@ -115,7 +120,6 @@ std::vector<std::uint8_t> compress(Compression c, const std::uint8_t* data, std:
   } else {
     out.assign(data, data + size);
   }
-  return out;
 }
 
 void decompress_into(const std::string& name, const std::uint8_t* data, std::size_t size, std::uint64_t uncompressed_size,

@@ -255,17 +255,18 @@ void write_message(ByteWriter& w, const MessageHeader& v, const std::uint8_t* da
   end_record(w, pos);
 }
 
-void write_chunk(ByteWriter& w, const ChunkHeader& v, const std::vector<std::uint8_t>& records) {
+void write_chunk_head(ByteWriter& w, const ChunkHeader& v, std::uint64_t records_size) {
   const auto pos = begin_record(w, Op::kChunk);
   w.u64(v.message_start_time);
   w.u64(v.message_end_time);
   w.u64(v.uncompressed_size);
   w.u32(v.uncompressed_crc);
   w.string(v.compression);
-  w.u64(records.size());
-  w.raw(records.data(), records.size());
-  end_record(w, pos);
+  w.u64(records_size);
+  // The record's length counts the records that follow this head.
+  w.patch_u64(pos, w.size() - pos - sizeof(std::uint64_t) + records_size);
 }
+
 
 void write_message_index(ByteWriter& w, const MessageIndex& v) {
   const auto pos = begin_record(w, Op::kMessageIndex);

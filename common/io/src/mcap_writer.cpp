@@ -25,11 +25,13 @@ McapWriter::~McapWriter() {
   }
 }
 
-void McapWriter::emit(const ByteWriter& bytes) {
-  out_.write(reinterpret_cast<const char*>(bytes.buffer().data()), static_cast<std::streamsize>(bytes.size()));
+void McapWriter::emit(const ByteWriter& bytes) { emit(bytes.buffer().data(), bytes.size()); }
+
+void McapWriter::emit(const std::uint8_t* data, std::size_t size) {
+  out_.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
   if (!out_) throw std::runtime_error("write to MCAP file '" + path_ + "' failed");
-  if (options_.write_crcs) data_crc_.update(bytes.buffer().data(), bytes.size());
-  offset_ += bytes.size();
+  if (options_.write_crcs) data_crc_.update(data, size);
+  offset_ += size;
 }
 
 std::uint16_t McapWriter::add_schema(const std::string& name, const std::string& encoding, const std::string& data) {
@@ -109,20 +111,25 @@ void McapWriter::flush_chunk() {
   h.uncompressed_size = records.size();
   h.uncompressed_crc = options_.write_crcs ? crc32(records.data(), records.size()) : 0;
   h.compression = compression_name(options_.compression);
-  const std::vector<std::uint8_t> compressed = compress(options_.compression, records.data(), records.size());
+  // Uncompressed records go to the file as they are; compressed ones through a reused buffer.
+  const bool packed = options_.compression != Compression::kNone;
+  if (packed) compress_into(options_.compression, records.data(), records.size(), compressed_);
+  const std::uint8_t* stored = packed ? compressed_.data() : records.data();
+  const std::size_t stored_size = packed ? compressed_.size() : records.size();
 
   mcap::ChunkIndex ci;
   ci.message_start_time = h.message_start_time;
   ci.message_end_time = h.message_end_time;
   ci.chunk_start_offset = offset_;
   ci.compression = h.compression;
-  ci.compressed_size = compressed.size();
+  ci.compressed_size = stored_size;
   ci.uncompressed_size = h.uncompressed_size;
   {
     ByteWriter w;
-    mcap::write_chunk(w, h, compressed);
-    ci.chunk_length = w.size();
+    mcap::write_chunk_head(w, h, stored_size);
+    ci.chunk_length = w.size() + stored_size;
     emit(w);
+    emit(stored, stored_size);
   }
   // Message Index records follow their chunk, one per channel present in it.
   const std::uint64_t index_start = offset_;

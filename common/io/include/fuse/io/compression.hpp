@@ -17,6 +17,8 @@ inline constexpr std::uint64_t kMaxUncompressedChunkBytes = 1ull << 31;
 const char* compression_name(Compression c);
 
 std::vector<std::uint8_t> compress(Compression c, const std::uint8_t* data, std::size_t size);
+/// The same into `out`, whose capacity is reused from call to call.
+void compress_into(Compression c, const std::uint8_t* data, std::size_t size, std::vector<std::uint8_t>& out);
 
 /// Decompresses `size` bytes compressed with `name` into exactly `uncompressed_size` bytes.
 /// The output grows with what the decoder really produces (never pre-allocated from the declared

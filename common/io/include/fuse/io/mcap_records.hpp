@@ -135,7 +135,9 @@ void write_footer(ByteWriter& w, const Footer& v);
 void write_schema(ByteWriter& w, const Schema& v);
 void write_channel(ByteWriter& w, const Channel& v);
 void write_message(ByteWriter& w, const MessageHeader& v, const std::uint8_t* data, std::size_t size);
-void write_chunk(ByteWriter& w, const ChunkHeader& v, const std::vector<std::uint8_t>& records);
+/// The Chunk record without its records: opcode, length (the records' records_size included) and
+/// the header fields; the records_size bytes of records are to follow it in the file.
+void write_chunk_head(ByteWriter& w, const ChunkHeader& v, std::uint64_t records_size);
 void write_message_index(ByteWriter& w, const MessageIndex& v);
 void write_chunk_index(ByteWriter& w, const ChunkIndex& v);
 void write_statistics(ByteWriter& w, const Statistics& v);

@@ -46,6 +46,7 @@ class McapWriter {
 
  private:
   void emit(const ByteWriter& bytes);
+  void emit(const std::uint8_t* data, std::size_t size);
   void flush_chunk();
   void write_summary_and_footer();
 
@@ -63,6 +64,7 @@ class McapWriter {
 
   // Open chunk: uncompressed records, time span and per-channel (log_time, offset) index.
   ByteWriter chunk_records_;
+  std::vector<std::uint8_t> compressed_;  ///< a chunk's compressed records, the buffer reused from chunk to chunk
   std::uint64_t chunk_start_time_ = 0, chunk_end_time_ = 0;
   std::map<std::uint16_t, mcap::MessageIndex> chunk_index_entries_;
 
