@@ -267,7 +267,6 @@ void write_chunk_head(ByteWriter& w, const ChunkHeader& v, std::uint64_t records
   w.patch_u64(pos, w.size() - pos - sizeof(std::uint64_t) + records_size);
 }
 
-
 void write_message_index(ByteWriter& w, const MessageIndex& v) {
   const auto pos = begin_record(w, Op::kMessageIndex);
   w.u16(v.channel_id);
