@@ -63,6 +63,43 @@ TEST(FitPlane, RefusesNonPlanarAndTooFewPoints) {
   EXPECT_FALSE(fit_plane(blob.data(), 2, 0.05f, normal, d));
 }
 
+// Points along a ground ring of a spinning LiDAR as the map keeps them (an arc 10 m from the
+// sensor, 20 cm apart, 2 cm of noise along the ray): every plane through the arc fits them within any thickness, and the fitted
+// normal's tilt about the arc follows the noise. With min_spread_ratio they are refused, while
+// the same number of points spread over a patch of the ground still fit, with the true normal.
+TEST(FitPlane, RefusesPointsAlongALineWithAMinimumSpread) {
+  std::mt19937 rng(102);
+  std::normal_distribution<float> noise(0.0f, 0.02f);
+  const Eigen::Vector3f sensor(0.0f, 0.0f, 1.9f);
+  std::vector<Eigen::Vector3f> ring, patch;
+  for (int i = 0; i < 5; ++i) {
+    const float az = 0.02f * static_cast<float>(i);  // 20 cm apart along the arc
+    const Eigen::Vector3f ground(10.0f * std::cos(az), 10.0f * std::sin(az), 0.0f);
+    const Eigen::Vector3f ray = (ground - sensor).normalized();
+    ring.push_back(ground + noise(rng) * ray);
+    patch.emplace_back(10.0f + 0.3f * static_cast<float>(i % 3), 0.3f * static_cast<float>(i / 3), 0.0f);
+  }
+  Eigen::Vector3f normal;
+  float d = 0.f;
+  EXPECT_TRUE(fit_plane(ring.data(), 5, 0.1f, normal, d));  // without the check: some plane
+  EXPECT_FALSE(fit_plane(ring.data(), 5, 0.1f, normal, d, nullptr, 0.02f));
+  ASSERT_TRUE(fit_plane(patch.data(), 5, 0.1f, normal, d, nullptr, 0.02f));
+  EXPECT_NEAR(std::abs(normal.z()), 1.0f, 1e-4f);
+}
+
+TEST(AssociationConfig, RefusesASpreadRatioOutsideItsRange) {
+  for (const char* bad : {"-0.1", "1.0", ".nan"}) {
+    ConfigNode node(YAML::Load(std::string("min_spread_ratio: ") + bad), "association");
+    AssociationConfig c;
+    try {
+      c.load(node);
+      ADD_FAILURE() << "accepted min_spread_ratio " << bad;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("min_spread_ratio"), std::string::npos) << e.what();
+    }
+  }
+}
+
 struct PlaneMapFixture {
   /// Map: the floor z = 0 on a 0.1 m grid over [0, 10]², in an iVox index.
   std::unique_ptr<SpatialIndex> map;

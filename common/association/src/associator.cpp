@@ -8,18 +8,19 @@ namespace fuse {
 
 void AssociationConfig::load(ConfigNode& node) {
   node.get("num_neighbors", num_neighbors).get("max_neighbor_distance", max_neighbor_distance);
-  node.get("plane_thickness", plane_thickness).get("screening", screening);
+  node.get("plane_thickness", plane_thickness).get("min_spread_ratio", min_spread_ratio).get("screening", screening);
   node.get("min_quality", min_quality).get("max_residual", max_residual);
   node.check(num_neighbors >= 3 && num_neighbors <= Neighbors::kMaxK, "num_neighbors", "must be in [3, 16]");
   node.check(max_neighbor_distance > 0.0 && max_neighbor_distance < 100.0, "max_neighbor_distance", "must be in (0, 100) m");
   node.check(plane_thickness > 0.0, "plane_thickness", "must be positive");
+  node.check(min_spread_ratio >= 0.0 && min_spread_ratio < 1.0, "min_spread_ratio", "must be in [0, 1)");
   node.check(min_quality >= 0.0 && min_quality <= 1.0, "min_quality", "must be in [0, 1]");
   node.check(max_residual > 0.0, "max_residual", "must be positive");
   node.finish();
 }
 
 bool fit_plane(const Eigen::Vector3f* points, int count, float thickness, Eigen::Vector3f& normal, float& d,
-               float* rms) {
+               float* rms, float min_spread_ratio) {
   if (count < 3) return false;
   Eigen::Vector3f mean = Eigen::Vector3f::Zero();
   for (int i = 0; i < count; ++i) mean += points[i];
@@ -36,6 +37,9 @@ bool fit_plane(const Eigen::Vector3f* points, int count, float thickness, Eigen:
   d = -normal.dot(mean);
   // The smallest eigenvalue of the scatter matrix is the sum of squared distances to the plane.
   if (rms != nullptr) *rms = std::sqrt(std::max(es.eigenvalues()(0), 0.0f) / static_cast<float>(count));
+  // Eigenvalues ascending: λ₁ is the spread across the longest direction λ₂. Points along a line
+  // fix only that line; the plane's rotation about it would follow the noise.
+  if (min_spread_ratio > 0.0f && es.eigenvalues()(1) < min_spread_ratio * es.eigenvalues()(2)) return false;
   for (int i = 0; i < count; ++i) {
     if (std::abs(normal.dot(points[i]) + d) > thickness) return false;
   }
@@ -65,6 +69,7 @@ void Associator::associate(const std::vector<Eigen::Vector3f>& points_L, const E
   const Eigen::Vector3f t = T_WL.translation().cast<float>();
   const float max_dist = static_cast<float>(config_.max_neighbor_distance);
   const float thickness = static_cast<float>(config_.plane_thickness);
+  const float min_spread = static_cast<float>(config_.min_spread_ratio);
   Neighbors nb;
   for (std::size_t i = 0; i < points_L.size(); ++i) {
     const Eigen::Vector3f& p_L = points_L[i];
@@ -76,7 +81,7 @@ void Associator::associate(const std::vector<Eigen::Vector3f>& points_L, const E
       continue;
     }
     Constraint c;
-    if (!fit_plane(nb.points, nb.count, thickness, c.normal, c.d, &c.plane_rms)) {
+    if (!fit_plane(nb.points, nb.count, thickness, c.normal, c.d, &c.plane_rms, min_spread)) {
       ++out.rejected_not_planar;
       continue;
     }

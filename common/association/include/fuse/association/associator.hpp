@@ -15,6 +15,12 @@ struct AssociationConfig {
   int num_neighbors = 5;           ///< k map points per plane
   double max_neighbor_distance = 2.0;  ///< m, farthest neighbour accepted
   double plane_thickness = 0.1;    ///< m, every neighbour within this of the fitted plane
+  /// Least share λ₁/λ₂ of the neighbours' scatter (eigenvalues λ₀ ≤ λ₁ ≤ λ₂) across their
+  /// longest direction. Below it the neighbours lie along a line (a spinning LiDAR's ring on the
+  /// ground, an edge): any plane through the line fits them, and the fitted normal's tilt about
+  /// it is set by the noise. Such a neighbourhood is refused (counted as not planar). 0: off
+  /// (config/spinning.yaml: 0.05).
+  double min_spread_ratio = 0.0;
   bool screening = true;           ///< ablation switch: residual screening on/off
   double min_quality = 0.9;        ///< τ_q
   double max_residual = 0.5;       ///< τ_r, m
@@ -22,10 +28,12 @@ struct AssociationConfig {
 };
 
 /// Fits nᵀq + d = 0 (|n| = 1) to points by least squares on [q 1]·[n; d] with the smallest
-/// eigenvector of their covariance. Returns false when not planar within `thickness`.
+/// eigenvector of their covariance. Returns false when not planar within `thickness`, or when
+/// the points spread across their longest direction by less than `min_spread_ratio` of their
+/// spread along it (λ₁ < min_spread_ratio·λ₂: a line, AssociationConfig::min_spread_ratio).
 /// `rms` (optional) receives the RMS distance of the points to the fitted plane.
 bool fit_plane(const Eigen::Vector3f* points, int count, float thickness, Eigen::Vector3f& normal, float& d,
-               float* rms = nullptr);
+               float* rms = nullptr, float min_spread_ratio = 0.0f);
 
 class Associator {
  public:
