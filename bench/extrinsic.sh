@@ -81,7 +81,7 @@ for sc in "${SCENARIOS[@]}"; do
     }
     BEGIN { mark[1] = 10; mark[2] = 30; mark[3] = 60 }
     END { for (k = 1; k <= 3; ++k) if (t - t0 < mark[k]) at[k] = "–"
-          printf "%.0f %%%s | %s | %s | %s | %s | %s", 100 * held / n, tilt > 0 ? sprintf(" (tilt estimated on %.0f %%)", 100 * tilt / n) : "",
+          printf "%.0f %%%s | %s | %s | %s | %s | %s", 100 * held / n, (tilt > 0 ? sprintf(" (tilt estimated on %.0f %%)", 100 * tilt / n) : ""),
                  at[1], at[2], at[3], last, settled }' "$run/diagnostics.csv")
   printf "| %s | %s | %s | %s° / %s cm | %s | %s | %s |\n" "$sc" "$LIDAR" "$SEED" "$ROT" "$TRANS" "$row" "$ate" "$st"
 done
