@@ -64,9 +64,9 @@ TEST(FitPlane, RefusesNonPlanarAndTooFewPoints) {
 }
 
 // Points along a ground ring of a spinning LiDAR as the map keeps them (an arc 10 m from the
-// sensor, 20 cm apart, 2 cm of noise along the ray): every plane through the arc fits them within any thickness, and the fitted
-// normal's tilt about the arc follows the noise. With min_spread_ratio they are refused, while
-// the same number of points spread over a patch of the ground still fit, with the true normal.
+// sensor, 20 cm apart, 2 cm of noise along the ray): planes through the arc at any tilt about it
+// fit them, and the fitted normal's tilt follows the noise. With min_spread_ratio they are
+// refused, while as many points spread over a patch of the ground still fit, with the true normal.
 TEST(FitPlane, RefusesPointsAlongALineWithAMinimumSpread) {
   std::mt19937 rng(102);
   std::normal_distribution<float> noise(0.0f, 0.02f);
@@ -157,6 +157,39 @@ TEST(Associator, ResidualsAgainstKnownPlaneAndScreening) {
   unscreened.associate(scan, f.T_WL, *f.map, set);
   EXPECT_EQ(set.constraints.size(), static_cast<std::size_t>(kInliers + kOutliers));
   EXPECT_EQ(set.rejected_screening, 0u);
+}
+
+// A map of ground rings 3 m apart (points 0.15 m apart along each): a scan point on a ring finds
+// its neighbours along that ring only. Without the spread check each becomes a plane; with it
+// every one is refused as not planar. The floor grid keeps every plane with the check on.
+TEST(Associator, MinSpreadRatioRefusesRingNeighbourhoodsOnly) {
+  auto rings = make_spatial_index(SpatialIndexConfig{});
+  std::vector<Eigen::Vector3f> map_pts, scan;
+  for (int r = 1; r <= 4; ++r) {
+    const float radius = 3.0f * static_cast<float>(r);
+    const int n = static_cast<int>(2.0f * static_cast<float>(M_PI) * radius / 0.15f);
+    for (int i = 0; i < n; ++i) {
+      const float az = 2.0f * static_cast<float>(M_PI) * static_cast<float>(i) / static_cast<float>(n);
+      map_pts.emplace_back(radius * std::cos(az), radius * std::sin(az), 0.0f);
+      const float between = az + static_cast<float>(M_PI) / static_cast<float>(n);  // half-way to the next
+      if (i % 10 == 5) scan.emplace_back(radius * std::cos(between), radius * std::sin(between), 0.0f);
+    }
+  }
+  rings->insert(map_pts);
+  AssociationConfig off, on;
+  on.min_spread_ratio = 0.05;
+  ConstraintSet set;
+  Associator(off).associate(scan, Eigen::Isometry3d::Identity(), *rings, set);
+  EXPECT_EQ(set.constraints.size() + set.rejected_screening, scan.size());
+  EXPECT_EQ(set.rejected_not_planar, 0u);
+  Associator(on).associate(scan, Eigen::Isometry3d::Identity(), *rings, set);
+  EXPECT_EQ(set.constraints.size(), 0u);
+  EXPECT_EQ(set.rejected_not_planar, scan.size());
+
+  PlaneMapFixture f;
+  std::mt19937 rng(104);
+  Associator(on).associate(f.points_at(0.0f, 100, rng), f.T_WL, *f.map, set);
+  EXPECT_EQ(set.constraints.size(), 100u);
 }
 
 // Points far from the map find no neighbours; rescreen() re-evaluates residuals at a new pose.
