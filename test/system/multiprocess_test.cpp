@@ -781,7 +781,9 @@ TEST_F(MultiProcess, ImuDropoutAndTimeOutlierGiveTheSingleProcessTrajectory) {
   EXPECT_NE(p.log("fuse-state", 1).find("coasted to it"), std::string::npos) << p.log("fuse-state", 1);
   EXPECT_GE(common + 2, single.trajectory.size());
   EXPECT_LE(worst, 1e-3);
-  EXPECT_LT(ate_multi, 2.0 * ate_clean);
+  // Handled as in system.time_fault: within 2x of the clean run, or 2 cm over it when that is more
+  // (the clean walk is 2.5 mm since the zero-velocity update at rest).
+  EXPECT_LT(ate_multi, std::max(2.0 * ate_clean, ate_clean + 0.02));
   fs::remove_all(faulty);
 }
 

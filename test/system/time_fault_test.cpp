@@ -8,11 +8,13 @@
 //   - both clocks stepping by ±100 s for the rest of the run: a clock step, re-localised;
 //   - fuse-run's exit codes: 0 clean, 3 diverged (with the reason), 1 for an --out that cannot be
 //     created, 2 for an empty config file.
-// A handled fault stays within 2x of the clean run's ATE (about 2 cm); an unhandled one is off by
-// metres: the negative controls switch the handling off by config and must fail that bound.
+// A handled fault stays within 2x of the clean run's ATE, or 2 cm over it (handled_bound); an
+// unhandled one is off by metres: the negative controls switch the handling off by config and
+// must fail that bound.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -37,8 +39,12 @@ using namespace fuse::test;
 
 const std::string kSeqdir = std::string(FUSE_TEST_DATA) + "/seqdir10";
 const std::string kConfig = std::string(FUSE_CONFIG_DIR) + "/mid360.yaml";
-/// A handled fault costs at most this factor of the clean run's ATE.
+/// A handled fault costs at most this factor of the clean run's ATE, or kAteAllowance over it
+/// when that is more: re-localising after a gap settles within a centimetre or so, whatever the
+/// clean run's own error (23.5 mm on this walk before the zero-velocity update at rest, 2.5 mm
+/// with it). An unhandled fault is off by metres.
 constexpr double kAteFactor = 2.0;
+constexpr double kAteAllowance = 0.02;  // m
 /// Phases of the walk (absolute times of the sequence, which starts at 1000 s and initialises
 /// for about 1 s): the first sample after each is where a fault starts.
 constexpr double kPhases[] = {1003.0, 1005.03, 1007.2};
@@ -103,6 +109,9 @@ double clean_ate() {
   return ate;
 }
 
+/// The ATE a handled fault stays within.
+double handled_bound() { return std::max(kAteFactor * clean_ate(), clean_ate() + kAteAllowance); }
+
 std::string test_name() { return ::testing::UnitTest::GetInstance()->current_test_info()->name(); }
 
 void report(const std::string& what, const FaultRun& r) {
@@ -134,7 +143,7 @@ TEST_P(ImuTimeOutlier, IsDroppedCountedAndHarmless) {
   EXPECT_TRUE(r.summary.error.empty()) << r.summary.error;
   EXPECT_EQ(r.count("imu_time_outlier"), 1u);
   EXPECT_EQ(r.count("imu_out_of_order") + r.count("imu_clock_step"), 0u) << "the stream after it was refused";
-  EXPECT_LE(r.ate, kAteFactor * clean_ate());
+  EXPECT_LE(r.ate, handled_bound());
   EXPECT_FALSE(r.summary.diverged) << r.summary.divergence;
 }
 
@@ -172,7 +181,7 @@ TEST_P(ImuDropout, IsCoastedAndReLocalised) {
   EXPECT_GE(r.count("scan_ahead_of_imu"), 1u) << "no scan ended inside the dropout";
   EXPECT_GE(r.count("recovery_scans"), 1u) << "the scans in the dropout were not re-localised";
   EXPECT_EQ(r.count("time_offset_at_bound"), 0u) << "the time offset ran to its bound across the dropout";
-  EXPECT_LE(r.ate, kAteFactor * clean_ate());
+  EXPECT_LE(r.ate, handled_bound());
   EXPECT_EQ(r.summary.tracking, TrackingStatus::kTracking) << r.summary.tracking_reason;
 }
 
@@ -194,7 +203,7 @@ TEST_F(TimeFault, ADropoutNotCoastedLosesTheTrack) {
   const FaultRun r = run_fault(test_name(), [&](Lines& imu, Lines&) { imu = without_imu(imu, d); },
                           {"estimator.divergence.coast_silent_imu=false"});
   report("0.7 s IMU dropout, coasting off", r);
-  EXPECT_GT(r.ate, kAteFactor * clean_ate());
+  EXPECT_GT(r.ate, handled_bound());
 }
 
 // --- 1 s of NaN gyro ---------------------------------------------------------------------------
@@ -216,7 +225,7 @@ TEST_P(NanGyro, IsRefusedAndTheGapCoasted) {
   report("1 s of NaN gyro after t=" + std::to_string(start), r);
   EXPECT_EQ(r.count("nan_imu_sample") + r.count("imu_not_finite"), 200u);
   EXPECT_GE(r.count("recovery_scans"), 1u);
-  EXPECT_LE(r.ate, kAteFactor * clean_ate());
+  EXPECT_LE(r.ate, handled_bound());
 }
 
 INSTANTIATE_TEST_SUITE_P(Walking, NanGyro, ::testing::Values(kPhases[0], kPhases[1]),
@@ -235,7 +244,7 @@ TEST_F(TimeFault, DuplicateAndSwappedImuSamplesAreCountedAndHarmless) {
   EXPECT_EQ(r.count("imu_duplicate"), 1u);
   EXPECT_EQ(r.count("imu_out_of_order"), 1u);
   EXPECT_EQ(r.count("imu_gap"), 0u);
-  EXPECT_LE(r.ate, kAteFactor * clean_ate());
+  EXPECT_LE(r.ate, handled_bound());
 }
 
 // --- Both clocks step for the rest of the run ----------------------------------------------------
@@ -252,7 +261,7 @@ TEST_P(ClockStep, IsDetectedAndReLocalised) {
   EXPECT_GE(r.count("imu_clock_step"), 1u);
   EXPECT_GE(r.count("scan_clock_step"), 1u);
   EXPECT_FALSE(r.summary.diverged) << r.summary.divergence;
-  EXPECT_LE(r.ate, kAteFactor * clean_ate());
+  EXPECT_LE(r.ate, handled_bound());
   // The state went on at the new time: poses on both sides of the step.
   std::size_t after = 0;
   for (const auto& p : r.summary.trajectory) after += std::abs(p.t - (at + step)) < std::abs(p.t - at) ? 1 : 0;

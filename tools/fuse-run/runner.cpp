@@ -49,7 +49,7 @@ void write_diagnostics(const std::string& path, const std::vector<ScanReport>& r
   f << "scan,t,updated,constraints,rejected_no_neighbors,rejected_not_planar,rejected_screening,"
        "min_eig_translation,min_eig_rotation,min_eig_ratio,min_gamma,iterations,converged,map_points,map_inserted,map_pending,map_carved,moving_screened,"
        "recovery,fit,match_fit,prior_position_std,prior_rotation_std,time_offset_s,tracking,"
-       "ext_rx_deg,ext_ry_deg,ext_rz_deg,ext_x,ext_y,ext_z,ext_held\n";
+       "ext_rx_deg,ext_ry_deg,ext_rz_deg,ext_x,ext_y,ext_z,ext_held,at_rest\n";
   for (std::size_t i = 0; i < reports.size(); ++i) {
     const auto& r = reports[i];
     f << i << ',' << std::fixed << std::setprecision(6) << r.t << ',' << r.updated << ',' << r.constraints << ','
@@ -60,7 +60,7 @@ void write_diagnostics(const std::string& path, const std::vector<ScanReport>& r
       << ',' << r.prior_rotation_std << ',' << std::setprecision(6) << r.time_offset << ',' << to_string(status[i]);
     const Eigen::Vector3d rv = r.extrinsic_rotation * (180.0 / M_PI);
     f << ',' << rv.x() << ',' << rv.y() << ',' << rv.z() << ',' << r.extrinsic_translation.x() << ','
-      << r.extrinsic_translation.y() << ',' << r.extrinsic_translation.z() << ',' << static_cast<int>(r.extrinsic_held) << '\n';
+      << r.extrinsic_translation.y() << ',' << r.extrinsic_translation.z() << ',' << static_cast<int>(r.extrinsic_held) << ',' << r.at_rest << '\n';
   }
 }
 

@@ -115,6 +115,7 @@ void EstimatorConfig::load(ConfigNode& node) {
   load_section(node, "initial_covariance", initial_covariance);
   load_section(node, "time_offset", time_offset);
   imu.time_offset_random_walk = time_offset.estimate ? time_offset.random_walk : 0.0;
+  load_section(node, "zero_velocity", zero_velocity);
   load_section(node, "divergence", divergence);
   load_section(node, "recovery", recovery);
   load_section(node, "clock", clock);

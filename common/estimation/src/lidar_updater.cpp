@@ -1,4 +1,5 @@
 #include "fuse/estimation/lidar_updater.hpp"
+#include "fuse/estimation/zero_velocity.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
@@ -106,6 +107,18 @@ double largest_std(const StateCovariance& P, int idx) {
   return std::sqrt(std::max(es.eigenvalues()(2), 0.0));
 }
 }  // namespace
+
+void LidarUpdater::hold_still(const LidarScan& scan, StateHistory& history, ScanReport& report) {
+  StateQuery q = history.query(scan.t_end);
+  if (!q.ok()) return;
+  const RestCheck rest = check_rest(imu_window(history, scan.t_start, scan.t_end, config_.divergence.max_imu_gap), q.x,
+                                    config_.zero_velocity);
+  if (!rest.at_rest) return;
+  report.at_rest = true;
+  counters_.add("zero_velocity_updates");
+  zero_velocity_update(config_.zero_velocity.velocity_std, q.x, q.P);
+  history.correct(scan.t_end, q.x, q.P);
+}
 
 bool LidarUpdater::needs_recovery(const StateCovariance& P) const {
   if (!config_.recovery.enabled) return false;
@@ -261,8 +274,10 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
     return report;
   }
 
-  // 2. Deskew through the history (or take the points as measured).
+  // 2. At rest (zero_velocity.hpp): v = 0 is measured first, so the deskew and the prior below
+  //    use it. Then deskew through the history (or take the points as measured).
   auto t_stage = Clock::now();
+  if (config_.zero_velocity.enabled) hold_still(scan, history, report);
   const StateQuery prior = history.query(scan.t_end);
   const Eigen::Isometry3d T_IL = prior.x.T_IL();
   const bool deskew = config_.preprocess.deskew && deskewer_.prepare(history, scan.t_start, scan.t_end);

@@ -18,6 +18,7 @@
 #include "fuse/estimation/static_initializer.hpp"
 #include "fuse/estimation/tracking_monitor.hpp"
 #include "fuse/estimation/update_backend.hpp"
+#include "fuse/estimation/zero_velocity.hpp"
 #include "fuse/map/map_policy.hpp"
 
 namespace fuse {
@@ -195,6 +196,7 @@ struct EstimatorConfig {
   MapPolicyConfig map;
   InitialCovarianceConfig initial_covariance;
   TimeOffsetConfig time_offset;
+  ZeroVelocityConfig zero_velocity;  ///< a scan whose IMU says the sensor is at rest updates v = 0
   DivergenceConfig divergence;
   RecoveryConfig recovery;
   TimeGateConfig clock;      ///< time checks of the IMU and scan streams

@@ -81,6 +81,9 @@ class LidarUpdater {
   static NavState turned(const NavState& prior, const std::optional<CoastedGap>& gap, double psi, const Eigen::Vector3d& up);
 
  private:
+  /// estimator.zero_velocity: when the scan's IMU samples say the sensor rests, corrects the
+  /// history at the scan end with v = 0 (zero_velocity.hpp) and flags the report.
+  void hold_still(const LidarScan& scan, StateHistory& history, ScanReport& report);
   void downsample();
   /// Drops the scan's points that the map policy marks as moving (mark_moving, at the prior).
   void screen_moving(const NavState& prior, ScanReport& report);

@@ -25,6 +25,8 @@ struct ScanReport {
   std::size_t constraints = 0, rejected_no_neighbors = 0, rejected_not_planar = 0, rejected_screening = 0;
   int iterations = 0;
   bool converged = false;
+  /// The scan's IMU samples said the sensor rests: v = 0 was measured at its end (estimator.zero_velocity).
+  bool at_rest = false;
   bool recovery = false;  ///< the prior was uncertain: re-localised (estimator.recovery)
   /// The re-localisation was ambiguous (recovery.ambiguity_*): it turned away from the prior's
   /// heading, and a result rival_heading (rad, about gravity) from the kept one fitted rival_fit,
