@@ -101,6 +101,8 @@ TEST(SimCli, ParsesTheVehicleOptions) {
   EXPECT_FALSE(u.options.traffic);
   EXPECT_TRUE(parse({"--scenario", "urban", "--seed", "3", "--out", "x"}).options.traffic);  // on by default
   EXPECT_TRUE(parse({"--scenario", "urban", "--seed", "3", "--traffic", "on", "--out", "x"}).options.traffic);
+  EXPECT_EQ(parse({"--scenario", "urban", "--seed", "3", "--stops", "2", "--out", "x"}).options.stops, 2);
+  EXPECT_EQ(parse({"--scenario", "urban", "--seed", "3", "--out", "x"}).options.stops, 0);
   // The classifier needs no --out; its tolerance defaults to 0.3 m.
   const Parsed c = parse({"--scenario", "urban", "--seed", "3", "--classify-map", "map.pcd"});
   ASSERT_FALSE(c.code) << c.err;
@@ -151,6 +153,10 @@ TEST(SimCli, RejectsBadArgumentsNamingTheFlag) {
       {{"--scenario", "room", "--seed", "1", "--imu-time-offset", "2", "--out", "x"}, "--imu-time-offset: expected a"},
       {{"--scenario", "room", "--seed", "1", "--imu-time-offset", "5ms", "--out", "x"}, "--imu-time-offset: expected"},
       {{"--scenario", "urban", "--seed", "1", "--traffic", "maybe", "--out", "x"}, "--traffic: expected on or off"},
+      {{"--scenario", "urban", "--seed", "1", "--stops", "-1", "--out", "x"}, "--stops: expected a non-negative integer"},
+      {{"--scenario", "urban", "--seed", "1", "--stops", "101", "--out", "x"}, "--stops: must be between 0 and 100"},
+      {{"--scenario", "campus", "--seed", "1", "--stops", "1", "--out", "x"},
+       "--stops: the scenario 'campus' does not stop at crossings"},
       {{"--scenario", "corridor", "--seed", "1", "--traffic", "off", "--out", "x"},
        "--traffic: the scenario 'corridor' has no moving objects"},
       {{"--scenario", "urban", "--seed", "1", "--classify-map", "m.ply", "--classify-tolerance", "0"},

@@ -166,6 +166,73 @@ TEST(SimTimeLaw, ScheduledSpeedsHonourTheLimitsAndTheAcceleration) {
   EXPECT_THROW(TimeLaw(bad, u_end), std::invalid_argument);
 }
 
+TEST(SimTimeLaw, StopsComeToRestAtTheirPlaceForTheirDwell) {
+  TimeLawConfig c;
+  c.rate = 12.0;
+  c.max_accel = 2.0;
+  c.limits = {{300.0, 340.0, 6.0}};
+  c.stops = {{150.0, 4.0}, {450.0, 2.5}};
+  const double u_end = 700.0;
+  const TimeLaw law(c, u_end);
+  EXPECT_NEAR(law.at(law.duration()).u, u_end, 1e-9);
+  // Each stop: the rate reaches 0 at its place and stays 0 for exactly its dwell.
+  for (const Stop& stop : c.stops) {
+    double first = -1.0, last = -1.0;
+    for (double t = 0.0; t <= law.duration(); t += 0.001) {
+      const TimeLawSample s = law.at(t);
+      if (std::abs(s.u - stop.u) < 1e-9 && s.u1 == 0.0) {
+        if (first < 0.0) first = t;
+        last = t;
+      }
+      ASSERT_GE(s.u1, 0.0);
+      ASSERT_LE(std::abs(s.u2), c.max_accel + 1e-9);
+    }
+    ASSERT_GE(first, 0.0) << "never at rest at u = " << stop.u;
+    EXPECT_NEAR(last - first, stop.dwell_s, 2e-3) << "u = " << stop.u;
+  }
+  // Smooth through the stops: derivatives against central differences, continuity at the phases.
+  for (double t = 0.013; t < law.duration(); t += 0.37) {
+    const double h = 1e-5;
+    const TimeLawSample s = law.at(t), a = law.at(t - h), b = law.at(t + h);
+    EXPECT_NEAR(s.u1, (b.u - a.u) / (2 * h), 1e-6) << t;
+    EXPECT_NEAR(s.u2, (b.u1 - a.u1) / (2 * h), 1e-5) << t;
+  }
+  // The same law from 200 m on keeps the second stop, 250 m along.
+  const TimeLawConfig later = c.from(200.0);
+  ASSERT_EQ(later.stops.size(), 1u);
+  EXPECT_NEAR(later.stops[0].u, 250.0, 1e-12);
+  TimeLawConfig bad = c;
+  bad.stops = {{320.0, 4.0}};  // inside the limited stretch
+  EXPECT_THROW(TimeLaw(bad, u_end), std::invalid_argument);
+  bad.stops = {{800.0, 4.0}};  // beyond the path
+  EXPECT_THROW(TimeLaw(bad, u_end), std::invalid_argument);
+  bad.stops = {{150.0, -1.0}};
+  EXPECT_THROW(TimeLaw(bad, u_end), std::invalid_argument);
+}
+
+TEST(SimUrban, StopsWaitAtTheStopLineBeforeTheFirstCorners) {
+  const Scenario plain = make_scenario("urban", 3, 3, kStartTime, 1, 0.0, false);
+  const Scenario stopping = make_scenario("urban", 3, 3, kStartTime, 1, 0.0, false, 2);
+  const Trajectory& t = *stopping.trajectory;
+  EXPECT_GT(t.t_end() - plain.trajectory->t_end(), 2.0 * kStopDwellS) << "two waits and their slow-downs";
+  EXPECT_NEAR(t.path().u_end(), plain.trajectory->path().u_end(), 1e-9) << "the same path";
+  // Rested stretches after the start: the two stops, each kStopDwellS long.
+  std::vector<double> rests;
+  double since = -1.0;
+  for (double time = t.t_begin() + 4.0; time <= t.t_end() - 3.0; time += 0.01) {
+    const bool still = t.state(time).v.norm() < 1e-9;
+    if (still && since < 0.0) since = time;
+    if (!still && since >= 0.0) {
+      rests.push_back(time - since);
+      since = -1.0;
+    }
+  }
+  ASSERT_EQ(rests.size(), 2u);
+  for (double r : rests) EXPECT_NEAR(r, kStopDwellS, 0.02);
+  EXPECT_THROW(make_scenario("corridor", 1, 1, kStartTime, 1, 0.0, true, 1), std::invalid_argument);
+  EXPECT_THROW(make_scenario("urban", 1, 1, kStartTime, 1, 0.0, false, 99), std::invalid_argument);
+}
+
 namespace {
 // Amplitude spectrum peak (Hz) of x sampled at `rate` between lo and hi Hz (plain DFT).
 double peak_frequency(const std::vector<double>& x, double rate, double lo, double hi) {

@@ -19,6 +19,7 @@ namespace {
 
 constexpr double kMaxDurationS = 1e5;    // sanity bound for --duration
 constexpr std::uint64_t kMaxLaps = 100;  // sanity bound for --laps
+constexpr std::uint64_t kMaxStops = 100;  // sanity bound for --stops (the drive has fewer corners)
 constexpr double kMinDurationS = 0.1;    // one LiDAR frame
 constexpr double kMaxImuTimeOffsetS = 1.0;  // sanity bound for --imu-time-offset (real offsets: ms)
 constexpr double kMaxClassifyToleranceM = 10.0;  // sanity bound for --classify-tolerance
@@ -32,7 +33,7 @@ class BadValue : public std::runtime_error {
 /// The options as typed: CLI11 stores the text, the checks below turn it into SimOptions.
 struct Given {
   std::string scenario, seed, world_seed, duration, laps, start_at, lidar, format, out, imu_time_offset;
-  std::string traffic, classify_map, classify_tolerance, map_trajectory;
+  std::string traffic, classify_map, classify_tolerance, map_trajectory, stops;
 };
 
 bool given(const CLI::App& app, const char* flag) { return app.count(flag) > 0; }
@@ -80,6 +81,10 @@ void add_options(CLI::App& app, Given& g) {
                  "urban: moving cars and pedestrians (on, the default) or the same run without them (off); an error "
                  "for a scenario without traffic")
       ->type_name("on|off");
+  app.add_option("--stops", g.stops,
+                 "urban: the car stops N times, at the stop line before each of its first N corners, for 4 s each "
+                 "(default 0; an error for a scenario that does not drive, or for more stops than corners)")
+      ->type_name("N");
   app.add_option("--imu-time-offset", g.imu_time_offset,
                  "stamp every IMU sample S seconds after its true time (an IMU clock ahead of the LiDAR's; "
                  "negative: behind), at most 1 s either way (default 0); scans and ground truth keep the true time")
@@ -143,6 +148,11 @@ void check_numbers(const CLI::App& app, const Given& g, SimOptions& o) {
     if (laps < 1 || laps > kMaxLaps) throw BadValue("--laps: must be between 1 and " + std::to_string(kMaxLaps));
     o.laps = static_cast<int>(laps);
   }
+  if (given(app, "--stops")) {
+    const std::uint64_t stops = parse_u64("--stops", g.stops);
+    if (stops > kMaxStops) throw BadValue("--stops: must be between 0 and " + std::to_string(kMaxStops));
+    o.stops = static_cast<int>(stops);
+  }
   if (given(app, "--start-at")) {
     errno = 0;
     char* end = nullptr;
@@ -184,6 +194,8 @@ void check_complete(const CLI::App& app, const Given& g, SimOptions& o) {
   if (!given(app, "--seed")) throw BadValue("missing --seed");
   if (!given(app, "--out") && o.classify_map.empty()) throw BadValue("missing --out");
   if (o.laps > 1 && o.scenario != "corridor") throw BadValue("--laps: only the corridor's path is a loop");
+  if (given(app, "--stops") && o.stops > 0 && !scenario_can_stop(o.scenario))
+    throw BadValue("--stops: the scenario '" + o.scenario + "' does not stop at crossings (only urban does)");
   if (given(app, "--traffic") && !scenario_has_traffic(o.scenario))
     throw BadValue("--traffic: the scenario '" + o.scenario + "' has no moving objects (only urban has)");
   if (given(app, "--classify-tolerance") && o.classify_map.empty())

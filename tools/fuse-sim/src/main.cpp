@@ -1,7 +1,7 @@
 // fuse-sim: LiDAR + IMU simulator with exact ground truth.
 //
 //   fuse-sim --scenario corridor|stairs|room|campus|urban --seed N [--world-seed M] [--duration S]
-//            [--laps N] [--start-at D] [--lidar mid360|spinning32|spinning64] [--traffic on|off]
+//            [--laps N] [--start-at D] [--stops N] [--lidar mid360|spinning32|spinning64] [--traffic on|off]
 //            [--imu-time-offset S] [--format mcap|seqdir] --out DIR
 //   fuse-sim --scenario ... --seed N [the run's other scenario options] --classify-map MAP.ply|MAP.pcd
 //            [--classify-tolerance M]
@@ -13,8 +13,9 @@
 // and motion variations; identical arguments give byte-identical files. --duration S cuts the
 // scenario short; --start-at D starts the walk D metres along the path (the same world and frame: a
 // map made by one walk serves another). --traffic off: urban without its moving objects, all else
-// equal. --classify-map rebuilds the same world and prints how many map points are static, ghost
-// (on a moving object's path) or other.
+// equal. --stops N: urban stops at the stop line before its first N corners, 4 s each.
+// --classify-map rebuilds the same world and prints how many map points are static, ghost (on a
+// moving object's path) or other.
 // Exit codes: 0 success (and after --help / --version), 1 simulation failure, 2 bad command line
 // (the command-line convention of every binary: fuse/cli/cli.hpp), 4 --classify-map file unreadable.
 #include <exception>

@@ -56,7 +56,7 @@ void move_into_world(std::vector<Eigen::Vector3f>& points, const std::string& es
 
 MapClassification classify_map_file(const SimOptions& o) {
   std::vector<Eigen::Vector3f> points = read_cloud(o.classify_map);
-  const Scenario sc = make_scenario(o.scenario, o.world_seed, o.seed, kStartTime, o.laps, o.start_at_m, o.traffic);
+  const Scenario sc = make_scenario(o.scenario, o.world_seed, o.seed, kStartTime, o.laps, o.start_at_m, o.traffic, o.stops);
   const Trajectory& tr = *sc.trajectory;
   if (!o.map_trajectory.empty()) move_into_world(points, o.map_trajectory, tr);
   const double duration = o.duration_s ? std::min(*o.duration_s, tr.t_end() - tr.t_begin()) : tr.t_end() - tr.t_begin();

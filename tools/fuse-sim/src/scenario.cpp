@@ -1,5 +1,6 @@
 #include "fuse/sim/scenario.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 
 #include "fuse/sim/imu_model.hpp"  // kDegToRad
@@ -23,9 +24,34 @@ const std::vector<std::string>& scenario_names() {
 }
 
 bool scenario_has_traffic(const std::string& name) { return name == "urban"; }
+bool scenario_can_stop(const std::string& name) { return name == "urban"; }
+
+namespace {
+/// The trajectory again with `stops` stops: at the stop line before each of the first corners'
+/// slow stretches (the law's speed limits in path order), for kStopDwellS each.
+void add_stops(Scenario& s, int stops) {
+  const Trajectory& full = *s.trajectory;
+  TimeLawConfig law = full.time_law().config();
+  std::vector<SpeedLimit> limits = law.limits;
+  std::sort(limits.begin(), limits.end(), [](const SpeedLimit& a, const SpeedLimit& b) { return a.u_begin < b.u_begin; });
+  if (stops < 0 || static_cast<std::size_t>(stops) > limits.size())
+    throw std::invalid_argument("stops: the '" + s.name + "' drive has " + std::to_string(limits.size()) +
+                                " corners to stop before");
+  for (int k = 0; k < stops; ++k) {
+    law.stops.push_back({limits[static_cast<std::size_t>(k)].u_begin - kStopLineM, kStopDwellS});
+    s.parameters.emplace_back("stop_" + std::to_string(k) + "_u_m", law.stops.back().u);
+  }
+  s.parameters.emplace_back("stops", stops);
+  s.parameters.emplace_back("stop_dwell_s", kStopDwellS);
+  const Path path = full.path();  // copies: emplace destroys `full`
+  const MotionConfig motion = full.motion();
+  const double t0 = full.t_begin();
+  s.trajectory.emplace(path, law, motion, t0);
+}
+}  // namespace
 
 Scenario make_scenario(const std::string& name, std::uint64_t world_seed, std::uint64_t seed, double t0, int laps,
-                       double start_at, bool traffic) {
+                       double start_at, bool traffic, int stops) {
   Scenario s;
   s.name = name;
   Rng world_rng(world_seed, Stream::kWorld);
@@ -46,6 +72,10 @@ Scenario make_scenario(const std::string& name, std::uint64_t world_seed, std::u
     detail::build_urban(s, world_rng, motion_rng, t0);
   else
     throw std::invalid_argument("unknown scenario '" + name + "' (expected corridor, stairs, room, campus or urban)");
+  if (stops != 0) {
+    if (!scenario_can_stop(name)) throw std::invalid_argument("stops: only the urban drive stops ('" + name + "' does not)");
+    add_stops(s, stops);
+  }
   if (start_at != 0.0) {
     // The same world and path; the walk starts start_at along it, at rest, with this seed's motion.
     const Trajectory& full = *s.trajectory;

@@ -317,7 +317,7 @@ SimSummary run_simulation(const SimOptions& o) {
   const auto log = fuse::logger("sim");
   const auto wall_start = std::chrono::steady_clock::now();
   prepare_out_dir(o.out_dir);
-  const Scenario sc = make_scenario(o.scenario, o.world_seed, o.seed, kStartTime, o.laps, o.start_at_m, o.traffic);
+  const Scenario sc = make_scenario(o.scenario, o.world_seed, o.seed, kStartTime, o.laps, o.start_at_m, o.traffic, o.stops);
   const Trajectory& tr = *sc.trajectory;
   const LidarConfig lidar = LidarConfig::from_name(o.lidar);
   ImuNoiseConfig imu_cfg;

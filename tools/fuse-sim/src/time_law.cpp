@@ -30,6 +30,9 @@ TimeLawConfig TimeLawConfig::from(double u0) const {
   c.limits.clear();
   for (const SpeedLimit& l : limits)
     if (l.u_end > u0) c.limits.push_back({std::max(0.0, l.u_begin - u0), l.u_end - u0, l.rate});
+  c.stops.clear();
+  for (const Stop& s : stops)
+    if (s.u > u0) c.stops.push_back({s.u - u0, s.dwell_s});
   // No limit left ahead: one that never binds keeps the law scheduled (same accelerations).
   if (c.limits.empty()) c.limits.push_back({0.0, 0.0, rate});
   return c;
@@ -67,6 +70,7 @@ void TimeLaw::plan(double u_end) {
   // rest at the start and to stop from it at the end, sorted and merged where they overlap.
   struct Stretch {
     double begin, end, rate;
+    double dwell = 0.0;  ///< s held at rest (a stop)
   };
   std::vector<Stretch> stretches;
   for (const SpeedLimit& l : config_.limits) {
@@ -88,6 +92,17 @@ void TimeLaw::plan(double u_end) {
       anchors.push_back(s);
     }
   }
+  for (const Stop& stop : config_.stops) {
+    if (!std::isfinite(stop.u) || !(stop.u > 0.0) || !(stop.u < u_end) || !std::isfinite(stop.dwell_s) ||
+        stop.dwell_s < 0.0)
+      throw std::invalid_argument("time law: a stop needs 0 < u < the path's end and a dwell >= 0");
+    for (std::size_t k = 1; k < anchors.size(); ++k) {
+      if (stop.u >= anchors[k].begin && stop.u <= anchors[k].end)
+        throw std::invalid_argument("time law: a stop lies inside a limited stretch");
+    }
+    anchors.push_back({stop.u, stop.u, 0.0, stop.dwell_s});
+  }
+  std::sort(anchors.begin() + 1, anchors.end(), [](const Stretch& a, const Stretch& b) { return a.begin < b.begin; });
   anchors.push_back({u_end, u_end, 0.0});  // ... and at the end
 
   // 2. Rates that the neighbours can reach or leave in the distance between (forward and backward
@@ -118,7 +133,11 @@ void TimeLaw::plan(double u_end) {
   for (std::size_t k = 0; k + 1 < anchors.size(); ++k) {
     const Stretch& a = anchors[k];
     const Stretch& b = anchors[k + 1];
-    if (k > 0) hold(a.rate, a.end - a.begin);
+    if (k > 0 && a.rate > 0.0) hold(a.rate, a.end - a.begin);
+    if (k > 0 && a.dwell > 0.0) {  // at rest at a stop
+      phases_.push_back({t, a.dwell, u, 0.0, 0.0});
+      t += a.dwell;
+    }
     const double gap = b.begin - a.end;
     const double peak = std::max(
         std::min(top, std::sqrt(0.5 * (2.0 * accel * gap / kSmoothPeakSlope + a.rate * a.rate + b.rate * b.rate))),

@@ -52,7 +52,16 @@ bool scenario_has_traffic(const std::string& name);
 /// in the same world frame; it throws when that leaves too little path for the speed ramps.
 /// traffic: a scenario with streets gets its moving objects (drawn from the world seed, kept
 /// clear of this trajectory); false leaves the same static world, path and seeds without them.
+/// stops > 0: a driven scenario (urban) stops that many times, at the stop line before each of
+/// its first corners, for kStopDwellS (scenario_stops); others throw.
 Scenario make_scenario(const std::string& name, std::uint64_t world_seed, std::uint64_t seed,
-                       double t0 = kStartTime, int laps = 1, double start_at = 0.0, bool traffic = true);
+                       double t0 = kStartTime, int laps = 1, double start_at = 0.0, bool traffic = true,
+                       int stops = 0);
+
+/// s a car waits at each stop (fuse-sim --stops), and m before a corner's slow stretch it stops.
+inline constexpr double kStopDwellS = 4.0;
+inline constexpr double kStopLineM = 2.0;
+/// Whether the scenario drives a schedule with corners to stop before (fuse-sim --stops): urban.
+bool scenario_can_stop(const std::string& name);
 
 }  // namespace fuse::sim

@@ -19,6 +19,7 @@ struct SimOptions {
   std::optional<double> duration_s;  ///< cut the scenario short (never lengthens it)
   int laps = 1;                      ///< times round a loop (corridor only)
   double start_at_m = 0.0;           ///< start this far along the path (same world and frame)
+  int stops = 0;                     ///< urban: stop at the stop line before the first N corners (kStopDwellS)
   std::string lidar = "mid360";
   /// The IMU's clock against the LiDAR's: every IMU sample is stamped its true time plus this
   /// (s; the ground truth and the scans are on the LiDAR's clock, the true one). A sensor pair

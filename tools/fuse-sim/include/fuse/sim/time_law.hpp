@@ -7,6 +7,7 @@
 // holds at a constant rate and smoothstep changes between rates, each change taking as long as
 // its peak acceleration (35/16 of the mean) allows. Between two limited stretches the rate rises
 // as far as the distance allows (at most the cruise rate) and falls again in time for the next.
+// A stop is a stretch of rate 0 and no length, held for its dwell time (a car at a stop line).
 #pragma once
 
 #include <vector>
@@ -20,6 +21,13 @@ struct SpeedLimit {
   double rate = 0.0;
 };
 
+/// The scheduled law comes to rest at path parameter `u` (a stop line) and waits there for
+/// `dwell_s` seconds before it drives on.
+struct Stop {
+  double u = 0.0;
+  double dwell_s = 0.0;
+};
+
 struct TimeLawConfig {
   double rest_start_s = 3.0;  ///< exactly at rest before moving
   double ramp_s = 2.0;        ///< duration of each speed ramp (without speed limits)
@@ -28,10 +36,12 @@ struct TimeLawConfig {
   /// Empty: the rest-ramp-cruise-ramp-rest law. Otherwise the scheduled law (file comment); the
   /// limits may come in any order and overlap (the lower rate wins).
   std::vector<SpeedLimit> limits;
+  /// Stops of the scheduled law (it needs limits); none may lie inside a limited stretch.
+  std::vector<Stop> stops;
   double max_accel = 2.5;  ///< m/s^2, peak |u''| of every rate change of the scheduled law
 
-  /// The same law for the path from parameter u0 on (Path::from): the limits shifted by -u0,
-  /// those wholly behind the new start dropped.
+  /// The same law for the path from parameter u0 on (Path::from): the limits and stops shifted
+  /// by -u0, those wholly behind the new start dropped.
   TimeLawConfig from(double u0) const;
 };
 
