@@ -17,7 +17,7 @@ void ZeroVelocityConfig::load(ConfigNode& node) {
   node.check(in(max_accel, 0.0, 5.0), "max_accel", "must be in [0, 5] m/s^2");
   node.check(in(max_gyro_std, 0.0, 1.0), "max_gyro_std", "must be in [0, 1] rad/s");
   node.check(in(max_accel_std, 0.0, 5.0), "max_accel_std", "must be in [0, 5] m/s^2");
-  node.check(in(velocity_std, 1e-4, 1.0) , "velocity_std", "must be in [1e-4, 1] m/s");
+  node.check(in(velocity_std, 1e-4, 1.0), "velocity_std", "must be in [1e-4, 1] m/s");
   node.finish();
 }
 
