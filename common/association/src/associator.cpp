@@ -1,6 +1,8 @@
 #include "fuse/association/associator.hpp"
 
-#include <Eigen/Eigenvalues>
+#include "fuse/association/smallest_eigen.hpp"
+
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -31,15 +33,14 @@ bool fit_plane(const Eigen::Vector3f* points, int count, float thickness, Eigen:
     cov += c * c.transpose();
   }
   // The plane normal is the eigenvector of the smallest eigenvalue (total least squares).
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> es;
-  es.computeDirect(cov);
-  normal = es.eigenvectors().col(0);
+  const SmallestEigen es = smallest_eigen(cov);
+  normal = es.vector;
   d = -normal.dot(mean);
   // The smallest eigenvalue of the scatter matrix is the sum of squared distances to the plane.
-  if (rms != nullptr) *rms = std::sqrt(std::max(es.eigenvalues()(0), 0.0f) / static_cast<float>(count));
+  if (rms != nullptr) *rms = std::sqrt(std::max(es.values(0), 0.0f) / static_cast<float>(count));
   // Eigenvalues ascending: λ₁ is the spread across the longest direction λ₂. Points along a line
   // fix only that line; the plane's rotation about it would follow the noise.
-  if (min_spread_ratio > 0.0f && es.eigenvalues()(1) < min_spread_ratio * es.eigenvalues()(2)) return false;
+  if (min_spread_ratio > 0.0f && es.values(1) < min_spread_ratio * es.values(2)) return false;
   for (int i = 0; i < count; ++i) {
     if (std::abs(normal.dot(points[i]) + d) > thickness) return false;
   }

@@ -14,6 +14,12 @@ std::uint64_t pack(std::int64_t x, std::int64_t y, std::int64_t z) {
   return ((static_cast<std::uint64_t>(x + kOffset) & kMask) << 42) | ((static_cast<std::uint64_t>(y + kOffset) & kMask) << 21) |
          (static_cast<std::uint64_t>(z + kOffset) & kMask);
 }
+/// ⌊x⌋ of a voxel coordinate (finite and within ±2³¹, filter()'s precondition): truncation
+/// rounds negative values up, so those step down by one.
+int floor_int(float x) {
+  const int t = static_cast<int>(x);
+  return t - static_cast<int>(x < static_cast<float>(t));
+}
 std::uint64_t mix(std::uint64_t k) {  // splitmix64 finaliser: spreads keys over the table
   k ^= k >> 30;
   k *= 0xbf58476d1ce4e5b9ULL;
@@ -23,6 +29,14 @@ std::uint64_t mix(std::uint64_t k) {  // splitmix64 finaliser: spreads keys over
 }
 }  // namespace
 
+inline std::size_t VoxelFilter::probe(std::size_t h, std::uint64_t key) const {
+  const std::uint64_t mask = table_.size() - 1;
+  while (table_[h].generation == generation_ && table_[h].key != key) h = (h + 1) & mask;
+  return h;
+}
+
+std::size_t VoxelFilter::find_slot(std::uint64_t key) const { return probe(mix(key) & (table_.size() - 1), key); }
+
 void VoxelFilter::filter(const std::vector<Eigen::Vector3f>& points, float voxel_size, std::vector<std::uint32_t>& kept) {
   kept.clear();
   // The table is sized for the number of voxels (not points) and grows when half full: a table
@@ -30,25 +44,54 @@ void VoxelFilter::filter(const std::vector<Eigen::Vector3f>& points, float voxel
   if (table_.empty() || ++generation_ == 0) reset_table(std::max<std::size_t>(table_.size(), kMinSlots));
   used_.clear();
   const float inv = 1.0f / voxel_size;
-  for (std::uint32_t i = 0; i < points.size(); ++i) {
+  // Pass 1, independent per point: each point's voxel key, its home slot and its squared distance
+  // to the voxel centre (in voxel units).
+  const std::size_t n = points.size();
+  keys_.resize(n);
+  homes_.resize(n);
+  dist2_.resize(n);
+  const std::uint64_t mask = table_.size() - 1;
+  for (std::size_t i = 0; i < n; ++i) {
     const Eigen::Vector3f v = points[i] * inv;
-    const Eigen::Vector3f cell(std::floor(v.x()), std::floor(v.y()), std::floor(v.z()));
-    const float d2 = (v - cell - Eigen::Vector3f::Constant(0.5f)).squaredNorm();
-    const std::uint64_t key = pack(static_cast<std::int64_t>(cell.x()), static_cast<std::int64_t>(cell.y()),
-                                   static_cast<std::int64_t>(cell.z()));
-    Slot& s = table_[find_slot(key)];
-    if (s.generation != generation_) {
-      s = Slot{key, i, d2, generation_};
-      used_.push_back(static_cast<std::uint32_t>(&s - table_.data()));
-      if (2 * used_.size() > table_.size()) grow();
-    } else if (d2 < s.dist2) {
-      s.index = i;
-      s.dist2 = d2;
+    const Eigen::Vector3i cell(floor_int(v.x()), floor_int(v.y()), floor_int(v.z()));
+    dist2_[i] = (v - cell.cast<float>() - Eigen::Vector3f::Constant(0.5f)).squaredNorm();
+    keys_[i] = pack(cell.x(), cell.y(), cell.z());
+    homes_[i] = static_cast<std::uint32_t>(mix(keys_[i]) & mask);
+  }
+  // Pass 2: the table. The slots are scattered over a table larger than the first-level cache;
+  // the slot of a point kPrefetchAhead further on is requested now, so its miss overlaps this
+  // point's work instead of stalling it.
+  constexpr std::size_t kPrefetchAhead = 8;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (i + kPrefetchAhead < n) __builtin_prefetch(&table_[homes_[i + kPrefetchAhead] & (table_.size() - 1)]);
+    const std::uint64_t key = keys_[i];
+    const float d2 = dist2_[i];
+    Slot* s = &table_[probe(homes_[i] & (table_.size() - 1), key)];
+    if (s->generation != generation_) {
+      *s = Slot{key, static_cast<std::uint32_t>(i), d2, generation_};
+      used_.push_back(static_cast<std::uint32_t>(s - table_.data()));
+      if (2 * used_.size() > table_.size()) {
+        grow();  // moves every slot: the home slots of the points still to come are recomputed
+        for (std::size_t j = i + 1; j < n; ++j) homes_[j] = static_cast<std::uint32_t>(mix(keys_[j]) & (table_.size() - 1));
+      }
+    } else {
+      // The closer point wins; on a tie the earlier one stays (a select, not a branch: which
+      // point is closer to the centre is a coin toss the branch predictor would lose).
+      const bool closer = d2 < s->dist2;
+      s->index = closer ? static_cast<std::uint32_t>(i) : s->index;
+      s->dist2 = closer ? d2 : s->dist2;
     }
   }
+  // The kept indices in input order: marked in a bitmap of the input and read back in order,
+  // linear in the input where a sort of the kept was n log n.
+  marks_.assign((points.size() + 63) / 64, 0);
+  for (const std::uint32_t h : used_) marks_[table_[h].index / 64] |= std::uint64_t{1} << (table_[h].index % 64);
   kept.reserve(used_.size());
-  for (const std::uint32_t h : used_) kept.push_back(table_[h].index);
-  std::sort(kept.begin(), kept.end());
+  for (std::size_t w = 0; w < marks_.size(); ++w) {
+    for (std::uint64_t bits = marks_[w]; bits != 0; bits &= bits - 1) {
+      kept.push_back(static_cast<std::uint32_t>(64 * w + static_cast<std::size_t>(__builtin_ctzll(bits))));
+    }
+  }
 }
 
 void VoxelFilter::reserve(std::size_t points) {
@@ -59,13 +102,7 @@ void VoxelFilter::reserve(std::size_t points) {
   reset_table(kMinSlots);
   used_.assign(points, 0);
   used_.clear();
-}
-
-std::size_t VoxelFilter::find_slot(std::uint64_t key) const {
-  const std::uint64_t mask = table_.size() - 1;
-  std::uint64_t h = mix(key) & mask;
-  while (table_[h].generation == generation_ && table_[h].key != key) h = (h + 1) & mask;
-  return h;
+  marks_.assign((points + 63) / 64, 0);
 }
 
 void VoxelFilter::reset_table(std::size_t capacity) {

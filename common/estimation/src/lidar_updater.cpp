@@ -3,10 +3,12 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <utility>
 
 #include <sys/resource.h>
 #include <time.h>
@@ -82,7 +84,8 @@ LidarUpdater::LidarUpdater(const EstimatorConfig& config)
   presize(raw_, kPresizedScanPoints, Eigen::Vector3f::Zero().eval());
   presize(in_range_, kPresizedScanPoints, std::uint32_t{0});
   presize(kept_, kPresizedScanPoints, std::uint32_t{0});
-  presize(keyed_, kPresizedScanPoints, std::pair<std::uint64_t, std::uint32_t>{0, 0});
+  presize(keyed_, kPresizedScanPoints, std::uint64_t{0});
+  presize(sorted_, kPresizedScanPoints, std::uint64_t{0});
   presize(kept_raw_, kPresizedScanPoints, std::uint32_t{0});
   for (auto* points : {&points_L_, &points_W_, &origins_L_, &origins_W_}) {
     presize(*points, kPresizedScanPoints, Eigen::Vector3f::Zero().eval());
@@ -650,11 +653,26 @@ void LidarUpdater::order_spatially() {
     const auto cx = static_cast<std::uint32_t>(static_cast<std::int32_t>(std::floor(p.x() / kCell)) + 512);
     const auto cy = static_cast<std::uint32_t>(static_cast<std::int32_t>(std::floor(p.y() / kCell)) + 512);
     const auto cz = static_cast<std::uint32_t>(static_cast<std::int32_t>(std::floor(p.z() / kCell)) + 512);
-    keyed_[i] = {spread(cx) | (spread(cy) << 1) | (spread(cz) << 2), in_range_[kept_[i]]};
+    // The 30-bit Morton code above the point's index.
+    const std::uint64_t code = spread(cx) | (spread(cy) << 1) | (spread(cz) << 2);
+    keyed_[i] = code << 32 | in_range_[kept_[i]];
   }
-  std::sort(keyed_.begin(), keyed_.end());
+  // Stable LSD radix sort on the code, three 10-bit digits: the points come in input order, so
+  // equal codes stay ordered by index, as a full sort of the keys would leave them (a comparison
+  // sort took four times as long).
+  constexpr int kDigitBits = 10;
+  constexpr std::size_t kBuckets = std::size_t{1} << kDigitBits;
+  sorted_.resize(keyed_.size());
+  for (int shift = 32; shift < 32 + 3 * kDigitBits; shift += kDigitBits) {
+    std::array<std::uint32_t, kBuckets> start{};
+    for (const std::uint64_t k : keyed_) ++start[(k >> shift) & (kBuckets - 1)];
+    std::uint32_t sum = 0;
+    for (std::uint32_t& c : start) sum += std::exchange(c, sum);
+    for (const std::uint64_t k : keyed_) sorted_[start[(k >> shift) & (kBuckets - 1)]++] = k;
+    keyed_.swap(sorted_);
+  }
   kept_raw_.resize(keyed_.size());
-  for (std::size_t i = 0; i < keyed_.size(); ++i) kept_raw_[i] = keyed_[i].second;
+  for (std::size_t i = 0; i < keyed_.size(); ++i) kept_raw_[i] = static_cast<std::uint32_t>(keyed_[i]);
 }
 
 void LidarUpdater::check_divergence(const ScanReport& report, const StateHistory& history) {

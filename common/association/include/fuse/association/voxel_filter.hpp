@@ -11,7 +11,9 @@ namespace fuse {
 
 class VoxelFilter {
  public:
-  /// Writes into `kept` the indices (into points) of the points retained, in input order.
+  /// Writes into `kept` the indices (into points) of the points retained, in input order. The
+  /// points must be finite and within 2²⁰ voxels of the origin (the key's range): callers pass
+  /// range-checked points (PreprocessConfig::in_range).
   void filter(const std::vector<Eigen::Vector3f>& points, float voxel_size, std::vector<std::uint32_t>& kept);
   /// Makes room for clouds of up to `points` points and faults it in now, so that no filter()
   /// call allocates for them. The table in use stays as small as the clouds need.
@@ -25,11 +27,16 @@ class VoxelFilter {
     std::uint32_t generation;  ///< slot is in use only when equal to generation_ (no clearing)
   };
   std::size_t find_slot(std::uint64_t key) const;
+  std::size_t probe(std::size_t home, std::uint64_t key) const;  ///< linear probing from home
   void reset_table(std::size_t capacity);
   void grow();
 
   std::vector<Slot> table_;  ///< reused between calls
   std::vector<std::uint32_t> used_;  ///< slots filled by the current call
+  std::vector<std::uint64_t> marks_;  ///< one bit per input point: kept
+  std::vector<std::uint64_t> keys_;   ///< per input point: its voxel
+  std::vector<std::uint32_t> homes_;  ///< per input point: its voxel's home slot
+  std::vector<float> dist2_;          ///< per input point: squared distance to its voxel's centre
   std::uint32_t generation_ = 0;
 };
 

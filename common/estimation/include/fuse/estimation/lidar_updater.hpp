@@ -127,7 +127,7 @@ class LidarUpdater {
   std::vector<Eigen::Vector3f> origins_L_, origins_W_;  ///< where each point's ray started (deskew)
   std::vector<std::uint8_t> moving_;  ///< per point: where an earlier scan saw empty space
   std::vector<std::uint32_t> in_range_, kept_, kept_raw_;
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed_;
+  std::vector<std::uint64_t> keyed_, sorted_;  ///< Morton code << 32 | point index (order_spatially)
   ConstraintSet constraints_;
   ConstraintSet best_constraints_;  ///< the heading search's best hypothesis so far
 };
