@@ -1,8 +1,34 @@
 #include "fuse/estimation/deskew.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace fuse {
+
+namespace {
+/// Below this angle (rad) the Taylor series of Rodrigues' coefficients to θ⁶ are exact to double
+/// precision (the first term left out, θ⁸/9!, is 3·10⁻¹⁴ at 0.1 rad). Between two IMU samples a
+/// vehicle or a handheld sensor turns by less (0.1 rad in 5 ms is 20 rad/s).
+constexpr double kSeriesMaxAngle = 0.1;
+
+/// Exp(φ)·v by Rodrigues' formula on the vector, without forming the matrix:
+///   Exp(φ)v = v + a·φ×v + b·φ×(φ×v),  a = sin θ/θ,  b = (1 − cos θ)/θ²,  θ = |φ|.
+Eigen::Vector3d rotate_by_exp(const Eigen::Vector3d& phi, const Eigen::Vector3d& v) {
+  const double t2 = phi.squaredNorm();
+  double a = 0.0;
+  double b = 0.0;
+  if (t2 < kSeriesMaxAngle * kSeriesMaxAngle) {
+    a = 1.0 - t2 / 6.0 * (1.0 - t2 / 20.0 * (1.0 - t2 / 42.0));          // sin θ/θ
+    b = 0.5 * (1.0 - t2 / 12.0 * (1.0 - t2 / 30.0 * (1.0 - t2 / 56.0)));  // (1 − cos θ)/θ²
+  } else {
+    const double t = std::sqrt(t2);
+    a = std::sin(t) / t;
+    b = (1.0 - std::cos(t)) / t2;
+  }
+  const Eigen::Vector3d w = phi.cross(v);
+  return v + a * w + b * phi.cross(w);
+}
+}  // namespace
 
 bool Deskewer::prepare(const StateHistory& history, double t_start, double t_end) {
   knots_.clear();
@@ -35,18 +61,24 @@ void Deskewer::apply(const LidarScan& scan, const std::vector<std::uint32_t>& in
   for (std::size_t i = 0; i < indices.size(); ++i) {
     const LidarPoint& pt = scan.points[indices[i]];
     const double t = std::clamp(static_cast<double>(pt.t_rel), 0.0, knots_.back().t_rel);
-    // Knot k with knots_[k].t_rel <= t < knots_[k+1].t_rel (points are mostly time-sorted).
-    if (k + 1 >= knots_.size() || t < knots_[k].t_rel) k = 0;
+    // Knot k with knots_[k].t_rel <= t < knots_[k+1].t_rel. The points come in spatial order
+    // (LidarUpdater::order_spatially), so a point earlier than the last one's knot searches.
+    if (k + 1 >= knots_.size() || t < knots_[k].t_rel) {
+      const auto after = std::upper_bound(knots_.begin(), knots_.end(), t,
+                                          [](double v, const Knot& knot) { return v < knot.t_rel; });
+      k = static_cast<std::size_t>(std::max<std::ptrdiff_t>(after - knots_.begin() - 1, 0));
+    }
     while (k + 2 < knots_.size() && knots_[k + 1].t_rel <= t) ++k;
     const Knot& a = knots_[k];
     const Knot& b = knots_[std::min(k + 1, knots_.size() - 1)];
     const double span = b.t_rel - a.t_rel;
     const double s = span > 0.0 ? (t - a.t_rel) / span : 0.0;
-    const Eigen::Matrix3d R = a.R * so3::Exp(s * a.omega);
+    // R(t) = R_a · Exp(s·ω_a), applied to vectors.
+    const Eigen::Vector3d phi = s * a.omega;
     const Eigen::Vector3d p = (1.0 - s) * a.p + s * b.p;
     const Eigen::Vector3d p_I = R_IL * Eigen::Vector3d(pt.x, pt.y, pt.z) + p_IL;
-    out[i] = (R_LI * (R * p_I + p - p_IL)).cast<float>();
-    if (origins != nullptr) (*origins)[i] = (R_LI * (R * p_IL + p - p_IL)).cast<float>();
+    out[i] = (R_LI * (a.R * rotate_by_exp(phi, p_I) + p - p_IL)).cast<float>();
+    if (origins != nullptr) (*origins)[i] = (R_LI * (a.R * rotate_by_exp(phi, p_IL) + p - p_IL)).cast<float>();
   }
 }
 

@@ -25,7 +25,7 @@ ImuWindow imu_window(const StateHistory& history, double t0, double t1, double m
   ImuWindow w;
   if (!history.initialised() || !(t1 > t0)) return w;
   // Entry i holds its sample over [t_i, t_{i+1}); the part of that inside [t0, t1] weighs it.
-  const auto entries = history.entries_between(history.oldest_time(), t1);
+  const auto entries = history.entries_covering(t0, t1);
   Eigen::Vector3d s_g = Eigen::Vector3d::Zero(), s_a = Eigen::Vector3d::Zero();
   Eigen::Vector3d q_g = Eigen::Vector3d::Zero(), q_a = Eigen::Vector3d::Zero();
   for (std::size_t i = 0; i < entries.size(); ++i) {

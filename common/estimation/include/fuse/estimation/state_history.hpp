@@ -170,6 +170,9 @@ class StateHistory {
   double measured_since(double t0, double t1, double max_step) const;
   /// Entries with t0 ≤ t ≤ t1 (the caller interpolates between them).
   std::vector<const Entry*> entries_between(double t0, double t1) const;
+  /// The entries whose held interval [t_i, t_i+1) meets [t0, t1]: the last one at or before t0
+  /// (the oldest when none is), then every one up to t1.
+  std::vector<const Entry*> entries_covering(double t0, double t1) const;
 
   const Entry& newest() const {
     refresh_to(entries_.size() - 1);
