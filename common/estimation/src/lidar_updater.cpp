@@ -253,10 +253,11 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
   std::size_t in_gap = 0;
   raw_.clear();
   in_range_.clear();
+  const PreprocessConfig::RangeGate gate = config_.preprocess.range_gate();
   for (std::uint32_t i = 0; i < scan.points.size(); ++i) {
     const LidarPoint& p = scan.points[i];
     const Eigen::Vector3f v(p.x, p.y, p.z);
-    if (!config_.preprocess.in_range(v)) continue;
+    if (!gate.pass(v)) continue;
     if (p.t_rel < measured_since) {
       ++in_gap;
       continue;

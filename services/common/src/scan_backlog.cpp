@@ -51,10 +51,11 @@ void ScanBacklog::compact(LidarScan& scan) {
   // have kept from the raw scan; only its voxel growth (max_points) then picks among fewer.
   xyz_.clear();
   in_range_.clear();
+  const PreprocessConfig::RangeGate gate = preprocess_.range_gate();
   for (std::uint32_t i = 0; i < scan.points.size(); ++i) {
     const LidarPoint& p = scan.points[i];
     const Eigen::Vector3f v(p.x, p.y, p.z);
-    if (!preprocess_.in_range(v)) continue;
+    if (!gate.pass(v)) continue;
     xyz_.push_back(v);
     in_range_.push_back(i);
   }

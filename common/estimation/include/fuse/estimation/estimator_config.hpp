@@ -40,9 +40,17 @@ struct PreprocessConfig {
   bool deskew = true;        ///< ablation switch
   void load(ConfigNode& node);
   /// Step 1's range filter: a finite point between min_range and max_range.
-  bool in_range(const Eigen::Vector3f& v) const {
-    const double r2 = v.squaredNorm();
-    return v.allFinite() && r2 >= min_range * min_range && r2 <= max_range * max_range;
+  struct RangeGate {
+    float min2, max2;  ///< squared bounds, m²
+    /// A NaN or infinite coordinate fails both comparisons.
+    bool pass(const Eigen::Vector3f& v) const {
+      const float r2 = v.squaredNorm();
+      return r2 >= min2 && r2 <= max2;
+    }
+  };
+  /// Taken once per scan: its bounds are not recomputed per point.
+  RangeGate range_gate() const {
+    return RangeGate{static_cast<float>(min_range * min_range), static_cast<float>(max_range * max_range)};
   }
 };
 
