@@ -14,8 +14,8 @@ std::uint64_t pack(std::int64_t x, std::int64_t y, std::int64_t z) {
   return ((static_cast<std::uint64_t>(x + kOffset) & kMask) << 42) | ((static_cast<std::uint64_t>(y + kOffset) & kMask) << 21) |
          (static_cast<std::uint64_t>(z + kOffset) & kMask);
 }
-/// ⌊x⌋ of a voxel coordinate (finite and within ±2³¹, filter()'s precondition): truncation
-/// rounds negative values up, so those step down by one.
+/// ⌊x⌋ of a voxel coordinate (finite and within the key's range: filter()'s precondition).
+/// Truncation rounds negative values up, so those step down by one.
 int floor_int(float x) {
   const int t = static_cast<int>(x);
   return t - static_cast<int>(x < static_cast<float>(t));
@@ -63,10 +63,10 @@ void VoxelFilter::filter(const std::vector<Eigen::Vector3f>& points, float voxel
   // point's work instead of stalling it.
   constexpr std::size_t kPrefetchAhead = 8;
   for (std::size_t i = 0; i < n; ++i) {
-    if (i + kPrefetchAhead < n) __builtin_prefetch(&table_[homes_[i + kPrefetchAhead] & (table_.size() - 1)]);
+    if (i + kPrefetchAhead < n) __builtin_prefetch(&table_[homes_[i + kPrefetchAhead]]);
     const std::uint64_t key = keys_[i];
     const float d2 = dist2_[i];
-    Slot* s = &table_[probe(homes_[i] & (table_.size() - 1), key)];
+    Slot* s = &table_[probe(homes_[i], key)];
     if (s->generation != generation_) {
       *s = Slot{key, static_cast<std::uint32_t>(i), d2, generation_};
       used_.push_back(static_cast<std::uint32_t>(s - table_.data()));
@@ -100,8 +100,15 @@ void VoxelFilter::reserve(std::size_t points) {
   while (slots < 2 * points) slots *= 2;
   table_.assign(slots, Slot{0, 0, 0.f, 0});  // written: faulted in; assign() below keeps the capacity
   reset_table(kMinSlots);
+  // The per-point buffers too, written now and emptied (their capacity stays).
   used_.assign(points, 0);
   used_.clear();
+  keys_.assign(points, 0);
+  keys_.clear();
+  homes_.assign(points, 0);
+  homes_.clear();
+  dist2_.assign(points, 0.0f);
+  dist2_.clear();
   marks_.assign((points + 63) / 64, 0);
 }
 
