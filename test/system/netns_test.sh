@@ -33,6 +33,18 @@ ip -n "$ns_b" addr add 10.77.0.2/24 dev "${tag}y"
 for ns in "$ns_a" "$ns_b"; do ip -n "$ns" link set lo up; done
 ip -n "$ns_a" link set "${tag}x" multicast off up
 ip -n "$ns_b" link set "${tag}y" multicast off up
+# The kernel brings a link's state up asynchronously (its link watch may take a second, longer on
+# a loaded machine), and the services read their interfaces once, when they start: a service
+# started before then filters its only interface out. So both ends must be up first.
+wait_up() {  # NS DEV
+  local deadline=$((SECONDS + 30))
+  until ip -n "$1" -o link show dev "$2" | grep -q "state UP"; do
+    [ "$SECONDS" -lt "$deadline" ] || fail "link $2 in $1 not up within 30 s: $(ip -n "$1" -o link show dev "$2")"
+    sleep 0.1
+  done
+}
+wait_up "$ns_a" "${tag}x"
+wait_up "$ns_b" "${tag}y"
 
 rm -rf "$out"
 mkdir -p "$out"
@@ -63,7 +75,7 @@ run() {
   local rc=$?
   kill -TERM "$update" "$state" "$map" 2> /dev/null
   wait "$update" "$state" "$map"
-  [ "$rc" -eq 0 ] || { tail -20 "$d"/logs/*.log; fail "$1: fuse-ingest exited with $rc"; }
+  [ "$rc" -eq 0 ] || { tail -n 20 "$d"/logs/*.log; fail "$1: fuse-ingest exited with $rc"; }
   python3 - "$out/single/trajectory.tum" "$d/trajectory.tum" "$1" << 'PY' || fail "$1: not the single-process trajectory"
 import sys
 def read(path):
