@@ -10,6 +10,8 @@ void PreprocessConfig::load(ConfigNode& node) {
   node.check(max_points >= 100, "max_points", "must be at least 100");
   node.check(min_range >= 0.0, "min_range", "must be >= 0");
   node.check(max_range > min_range, "max_range", "must be greater than min_range");
+  // The voxel filter's keys hold ±2²⁰ voxels: 1,000 m at the smallest voxel is 10⁵ of them.
+  node.check(max_range <= 1000.0, "max_range", "must be at most 1000 m");
   node.check(voxel_size >= 0.01 && voxel_size <= 5.0, "voxel_size", "must be in [0.01, 5] m");
   node.finish();
 }

@@ -13,7 +13,7 @@ class VoxelFilter {
  public:
   /// Writes into `kept` the indices (into points) of the points retained, in input order. The
   /// points must be finite and within 2²⁰ voxels of the origin (the key's range): callers pass
-  /// range-checked points (PreprocessConfig::range_gate).
+  /// range-checked points (PreprocessConfig::range_gate, whose bounds its load() keeps inside).
   void filter(const std::vector<Eigen::Vector3f>& points, float voxel_size, std::vector<std::uint32_t>& kept);
   /// Makes room for clouds of up to `points` points and faults it in now, so that no filter()
   /// call allocates for them. The table in use stays as small as the clouds need.
