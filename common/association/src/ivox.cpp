@@ -234,7 +234,17 @@ void IVox::knn(const Eigen::Vector3f& q, int k, float max_dist, Neighbors& out) 
   out.count = 0;
   float bound2 = max_dist * max_dist;  // squared radius that can still improve the result
   const Key center = key_of(q);
-  const Eigen::Vector3f center_min = center.cast<float>() * voxel_size_;
+  // The squared gap from q to a neighbour voxel's box is a sum over the axes of the squared gap
+  // to the centre voxel's low face (offset −1), nothing (0) or its high face (+1), as q lies in
+  // the centre voxel: gap2[axis][offset + 1].
+  const Eigen::Vector3f below = q - center.cast<float>() * voxel_size_;
+  const Eigen::Vector3f above = Eigen::Vector3f::Constant(voxel_size_) - below;
+  float gap2[3][3];
+  for (int a = 0; a < 3; ++a) {
+    gap2[a][0] = below[a] * below[a];
+    gap2[a][1] = 0.0f;
+    gap2[a][2] = above[a] * above[a];
+  }
   // The neighbourhood's voxels lie scattered over a table far larger than the caches, so each
   // lookup is a cache miss. Asking for all of them first lets the misses overlap (memory-level
   // parallelism) instead of following one another: the slots, then the voxel records, then
@@ -256,10 +266,8 @@ void IVox::knn(const Eigen::Vector3f& q, int k, float max_dist, Neighbors& out) 
   for (std::size_t i = 0; i < n; ++i) {
     if (id[i] < 0) continue;
     // Skip a voxel whose box is farther from q than the current k-th neighbour (or max_dist).
-    const Eigen::Vector3f box_min = center_min + offsets_[i].cast<float>() * voxel_size_;
-    const Eigen::Vector3f gap =
-        (box_min - q).cwiseMax(q - box_min - Eigen::Vector3f::Constant(voxel_size_)).cwiseMax(0.0f);
-    if (gap.squaredNorm() > bound2) continue;
+    const Key& o = offsets_[i];
+    if (gap2[0][o.x() + 1] + gap2[1][o.y() + 1] + gap2[2][o.z() + 1] > bound2) continue;
     // Keep the k best in a small sorted array (insertion sort: k ≤ 16).
     const Voxel& vox = voxels_[id[i]];
     for (const Eigen::Vector3f* it = vox.points.data; it != vox.points.data + vox.count; ++it) {
