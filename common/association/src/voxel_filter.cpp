@@ -77,9 +77,10 @@ void VoxelFilter::filter(const std::vector<Eigen::Vector3f>& points, float voxel
     } else {
       // The closer point wins; on a tie the earlier one stays (a select, not a branch: which
       // point is closer to the centre is a coin toss the branch predictor would lose).
-      const bool closer = d2 < s->dist2;
-      s->index = closer ? static_cast<std::uint32_t>(i) : s->index;
-      s->dist2 = closer ? d2 : s->dist2;
+      // Written as a mask: the compiler turned the conditional expressions into that branch.
+      const std::uint32_t closer = 0u - static_cast<std::uint32_t>(d2 < s->dist2);  // all ones or 0
+      s->index = (static_cast<std::uint32_t>(i) & closer) | (s->index & ~closer);
+      s->dist2 = std::min(s->dist2, d2);  // d2 only if smaller
     }
   }
   // The kept indices in input order: marked in a bitmap of the input and read back in order,
