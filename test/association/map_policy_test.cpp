@@ -125,6 +125,20 @@ TEST(MapPolicy, BadConfirmValuesAreRefusedNamingTheKey) {
   }
 }
 
+TEST(MapPolicy, UsesRaysOnlyWhenItCarves) {
+  // The updater computes each point's ray origin (a second rotation per point) only for a policy
+  // that reads them.
+  MapPolicyConfig cfg;
+  EXPECT_FALSE(make_map_policy(cfg)->uses_rays());
+  cfg.carve_s = 2.0;
+  EXPECT_TRUE(make_map_policy(cfg)->uses_rays());
+  cfg.carve_s = 0.0;
+  cfg.carve_lookback_s = 1.0;
+  EXPECT_TRUE(make_map_policy(cfg)->uses_rays());
+  cfg.mode = "localization";
+  EXPECT_FALSE(make_map_policy(cfg)->uses_rays());
+}
+
 TEST(MapPolicy, UnknownModeIsRefused) {
   MapPolicyConfig cfg;
   ConfigNode node = ConfigNode::from_string("mode: painting\n");

@@ -288,10 +288,14 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
   if (config_.preprocess.deskew && !deskew) {
     counters_.count("deskew_without_history", "scan start is not covered by the state history: points used as measured");
   }
+  // The rays' origins only for a map policy that carves with them (they cost a second rotation
+  // per point); origins_L_ stays empty otherwise.
+  const bool rays = map_policy_->uses_rays();
+  origins_L_.clear();
   if (deskew) {
-    deskewer_.apply(scan, kept_raw_, T_IL, points_L_, &origins_L_);
+    deskewer_.apply(scan, kept_raw_, T_IL, points_L_, rays ? &origins_L_ : nullptr);
   } else {
-    origins_L_.assign(kept_raw_.size(), Eigen::Vector3f::Zero());
+    if (rays) origins_L_.assign(kept_raw_.size(), Eigen::Vector3f::Zero());
     points_L_.resize(kept_raw_.size());
     for (std::size_t i = 0; i < kept_raw_.size(); ++i) {
       const LidarPoint& p = scan.points[kept_raw_[i]];
@@ -385,8 +389,10 @@ ScanReport LidarUpdater::process(const LidarScan& scan, StateHistory& history) {
       points_W_.resize(kept);
     }
     // The scan's rays carve the map (a map policy's free-space carving) only from a pose the
-    // update has just confirmed: a scan misplaced would carve through walls.
-    const bool trusted = report.updated && report.converged && !report.recovery && !report.map_held;
+    // update has just confirmed: a scan misplaced would carve through walls. (No origins: the
+    // policy does not carve.)
+    const bool trusted = report.updated && report.converged && !report.recovery && !report.map_held &&
+                         !origins_L_.empty();
     if (trusted) {
       origins_W_.resize(origins_L_.size());
       for (std::size_t i = 0; i < origins_L_.size(); ++i) origins_W_[i] = R * origins_L_[i] + t;
@@ -610,12 +616,12 @@ void LidarUpdater::screen_moving(const NavState& prior, ScanReport& report) {
   for (std::size_t i = 0; i < points_L_.size(); ++i) {
     if (moving_[i] != 0) continue;
     points_L_[kept] = points_L_[i];
-    origins_L_[kept] = origins_L_[i];
+    if (!origins_L_.empty()) origins_L_[kept] = origins_L_[i];
     kept_raw_[kept] = kept_raw_[i];
     ++kept;
   }
   points_L_.resize(kept);
-  origins_L_.resize(kept);
+  if (!origins_L_.empty()) origins_L_.resize(kept);
   kept_raw_.resize(kept);
 }
 

@@ -94,6 +94,9 @@ class MapPolicy {
                                std::vector<Eigen::Vector3f>* inserted = nullptr,
                                const std::vector<Eigen::Vector3f>* origins = nullptr) = 0;
   virtual std::string name() const = 0;
+  /// Whether apply() reads the rays' origins (a policy that carves free space): a caller may
+  /// leave them out, and not compute them, when it does not.
+  virtual bool uses_rays() const { return false; }
   /// Whether mark_moving() can find anything (a policy that keeps the rays of earlier scans).
   virtual bool marks_moving() const { return false; }
   /// Marks (moving[i] = 1) the points of a scan measured at t, in the world frame, that lie
@@ -114,6 +117,7 @@ class MappingPolicy final : public MapPolicy {
                        std::vector<Eigen::Vector3f>* inserted = nullptr,
                        const std::vector<Eigen::Vector3f>* origins = nullptr) override;
   std::string name() const override { return "mapping"; }
+  bool uses_rays() const override { return config_.carve_s > 0.0 || config_.carve_lookback_s > 0.0; }
   bool marks_moving() const override { return config_.carve_lookback_s > 0.0; }
   std::size_t mark_moving(double t, const std::vector<Eigen::Vector3f>& world_points, const SpatialIndex& map,
                           std::vector<std::uint8_t>& moving) override {
