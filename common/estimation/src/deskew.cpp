@@ -1,6 +1,7 @@
 #include "fuse/estimation/deskew.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 namespace fuse {
@@ -57,17 +58,24 @@ void Deskewer::apply(const LidarScan& scan, const std::vector<std::uint32_t>& in
   const Eigen::Matrix3d R_IL = T_IL.linear();
   const Eigen::Vector3d p_IL = T_IL.translation();
   const Eigen::Matrix3d R_LI = R_IL.transpose();
-  std::size_t k = 0;
+  // Knot k of a point at t: the last with knots_[k].t_rel <= t (at most the second last). The
+  // points come in spatial order (LidarUpdater::order_spatially), not in time, so each point
+  // starts from the knot of its slice of the scan's span, found once per scan, and steps on from
+  // there (a binary search per point was a handful of branches no predictor can learn).
+  constexpr std::size_t kSlices = 64;
+  const double span = knots_.back().t_rel;
+  const double per_slice = span > 0.0 ? static_cast<double>(kSlices) / span : 0.0;
+  std::array<std::size_t, kSlices> slice_knot{};  // all 0 when the span is 0
+  for (std::size_t j = 0, k = 0; span > 0.0 && j < kSlices; ++j) {
+    const double t_j = static_cast<double>(j) / per_slice;  // the slice's start
+    while (k + 2 < knots_.size() && knots_[k + 1].t_rel <= t_j) ++k;
+    slice_knot[j] = k;
+  }
   for (std::size_t i = 0; i < indices.size(); ++i) {
     const LidarPoint& pt = scan.points[indices[i]];
-    const double t = std::clamp(static_cast<double>(pt.t_rel), 0.0, knots_.back().t_rel);
-    // Knot k with knots_[k].t_rel <= t < knots_[k+1].t_rel. The points come in spatial order
-    // (LidarUpdater::order_spatially), so a point earlier than the last one's knot searches.
-    if (k + 1 >= knots_.size() || t < knots_[k].t_rel) {
-      const auto after = std::upper_bound(knots_.begin(), knots_.end(), t,
-                                          [](double v, const Knot& knot) { return v < knot.t_rel; });
-      k = static_cast<std::size_t>(std::max<std::ptrdiff_t>(after - knots_.begin() - 1, 0));
-    }
+    const double t = std::clamp(static_cast<double>(pt.t_rel), 0.0, span);
+    std::size_t k = slice_knot[std::min(static_cast<std::size_t>(t * per_slice), kSlices - 1)];
+    while (k > 0 && knots_[k].t_rel > t) --k;  // a slice start rounded past t
     while (k + 2 < knots_.size() && knots_[k + 1].t_rel <= t) ++k;
     const Knot& a = knots_[k];
     const Knot& b = knots_[std::min(k + 1, knots_.size() - 1)];
