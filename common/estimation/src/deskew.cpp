@@ -74,7 +74,8 @@ void Deskewer::apply(const LidarScan& scan, const std::vector<std::uint32_t>& in
   for (std::size_t i = 0; i < indices.size(); ++i) {
     const LidarPoint& pt = scan.points[indices[i]];
     const double t = std::clamp(static_cast<double>(pt.t_rel), 0.0, span);
-    std::size_t k = slice_knot[std::min(static_cast<std::size_t>(t * per_slice), kSlices - 1)];
+    const double slice = t * per_slice;  // in [0, kSlices]; NaN (a point the readers refuse) takes slice 0
+    std::size_t k = slice_knot[slice > 0.0 ? std::min(static_cast<std::size_t>(slice), kSlices - 1) : 0];
     while (k > 0 && knots_[k].t_rel > t) --k;  // a slice start rounded past t
     while (k + 2 < knots_.size() && knots_[k + 1].t_rel <= t) ++k;
     const Knot& a = knots_[k];
