@@ -255,21 +255,24 @@ void IVox::knn(const Eigen::Vector3f& q, int k, float max_dist, Neighbors& out) 
     slot[i] = home_slot(center + offsets_[i]);
     __builtin_prefetch(&slots_[slot[i]]);
   }
+  // The voxels that exist, in neighbourhood order, gathered without a branch per neighbour.
   std::array<std::int32_t, kMaxOffsets> id;
+  std::array<std::uint8_t, kMaxOffsets> which;
+  std::size_t found = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    id[i] = slots_[probe(slot[i], center + offsets_[i])].id - 1;
-    if (id[i] >= 0) __builtin_prefetch(&voxels_[id[i]]);
+    const std::int32_t v = slots_[probe(slot[i], center + offsets_[i])].id - 1;
+    __builtin_prefetch(voxels_.data() + std::max(v, 0));  // a voxel that exists, else the first record (harmless)
+    id[found] = v;
+    which[found] = static_cast<std::uint8_t>(i);
+    found += v >= 0 ? 1 : 0;
   }
-  for (std::size_t i = 0; i < n; ++i) {
-    if (id[i] >= 0) __builtin_prefetch(voxels_[id[i]].points.data);
-  }
-  for (std::size_t i = 0; i < n; ++i) {
-    if (id[i] < 0) continue;
+  for (std::size_t j = 0; j < found; ++j) __builtin_prefetch(voxels_[id[j]].points.data);
+  for (std::size_t j = 0; j < found; ++j) {
     // Skip a voxel whose box is farther from q than the current k-th neighbour (or max_dist).
-    const Key& o = offsets_[i];
+    const Key& o = offsets_[which[j]];
     if (gap2[0][o.x() + 1] + gap2[1][o.y() + 1] + gap2[2][o.z() + 1] > bound2) continue;
     // Keep the k best in a small sorted array (insertion sort: k ≤ 16).
-    const Voxel& vox = voxels_[id[i]];
+    const Voxel& vox = voxels_[id[j]];
     for (const Eigen::Vector3f* it = vox.points.data; it != vox.points.data + vox.count; ++it) {
       const Eigen::Vector3f& p = *it;
       const float d2 = (p - q).squaredNorm();
