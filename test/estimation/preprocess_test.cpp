@@ -1,12 +1,11 @@
 // Step 1's range gate (PreprocessConfig::range_gate) and the preprocessing config's checks.
 #include <gtest/gtest.h>
-#include <yaml-cpp/yaml.h>
 
 #include <cmath>
 #include <limits>
-#include <string>
 
 #include "fuse/estimation/estimator_config.hpp"
+#include "../core/config_checks.hpp"
 
 namespace fuse {
 namespace {
@@ -31,17 +30,8 @@ TEST(RangeGate, PassesFinitePointsBetweenTheBoundsOnly) {
 }
 
 TEST(PreprocessConfig, RefusesBadValuesNamingTheKey) {
-  for (const char* bad : {"min_range: -1", "max_range: 0.1", "max_range: 5000", "voxel_size: 0", "max_points: 10"}) {
-    ConfigNode node(YAML::Load(bad), "preprocess");
-    PreprocessConfig c;
-    const std::string key = YAML::Load(bad).begin()->first.as<std::string>();
-    try {
-      c.load(node);
-      ADD_FAILURE() << "accepted " << bad;
-    } catch (const ConfigError& e) {
-      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
-    }
-  }
+  expect_refused_naming_the_key<PreprocessConfig>(
+      {"min_range: -1", "max_range: 0.1", "max_range: 5000", "voxel_size: 0", "max_points: 10"});
 }
 
 }  // namespace
