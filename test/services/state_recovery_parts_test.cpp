@@ -156,6 +156,7 @@ TEST(HistorySlice, EntryStepsRoundTripAndBadOnesAreRefused) {
   e.x = some_posterior(12.5).x;
   e.gyro = Eigen::Vector3d(0.1, 0.2, 0.3);
   e.accel = Eigen::Vector3d(0.4, 0.5, 9.6);
+  e.gyro_smooth = Eigen::Vector3d(0.12, 0.18, 0.27);
   for (int i = 0; i < kStateDim; ++i) e.step.q(i) = 1e-3 * (i + 1);
   e.step.level_accel = Eigen::Vector3d(0.2, -0.1, 9.7);
   e.step.level_sigma = 0.1;
@@ -168,6 +169,7 @@ TEST(HistorySlice, EntryStepsRoundTripAndBadOnesAreRefused) {
   EXPECT_EQ(back.step.coast_accel_std, e.step.coast_accel_std);
   EXPECT_EQ(back.step.coast_gyro_std, e.step.coast_gyro_std);
   EXPECT_TRUE(back.coasting);
+  EXPECT_EQ(back.gyro_smooth, e.gyro_smooth);  // the time offset's column reads it (re-propagation)
   EXPECT_EQ(back.step.q, e.step.q);
   EXPECT_EQ(back.step.level_accel, e.step.level_accel);
   EXPECT_EQ(back.step.level_sigma, e.step.level_sigma);
@@ -187,6 +189,9 @@ TEST(HistorySlice, EntryStepsRoundTripAndBadOnesAreRefused) {
   EXPECT_THROW(from_msg(bad), InvalidSample);
   bad = to_msg(e);
   bad.step_coast_gyro_std(-0.1);
+  EXPECT_THROW(from_msg(bad), InvalidSample);
+  bad = to_msg(e);
+  bad.gyro_smooth().y(std::nan(""));
   EXPECT_THROW(from_msg(bad), InvalidSample);
   bad = to_msg(e);
   bad.step_coast_from(std::numeric_limits<double>::infinity());

@@ -31,6 +31,9 @@ void InitialCovarianceConfig::load(ConfigNode& node) {
 void TimeOffsetConfig::load(ConfigNode& node) {
   node.get("initial_s", initial_s).get("estimate", estimate).get("std_s", std_s).get("max_s", max_s);
   node.get("random_walk", random_walk).get("hold_after_relocalisation_s", hold_after_relocalisation_s);
+  node.get("rate_smoothing_s", rate_smoothing_s);
+  node.check(std::isfinite(rate_smoothing_s) && rate_smoothing_s >= 0.0 && rate_smoothing_s <= 1.0, "rate_smoothing_s",
+             "must be in [0, 1] s");
   node.check(std::isfinite(hold_after_relocalisation_s) && hold_after_relocalisation_s >= 0.0 &&
                  hold_after_relocalisation_s <= 60.0,
              "hold_after_relocalisation_s", "must be in [0, 60] s");
@@ -117,6 +120,7 @@ void EstimatorConfig::load(ConfigNode& node) {
   load_section(node, "initial_covariance", initial_covariance);
   load_section(node, "time_offset", time_offset);
   imu.time_offset_random_walk = time_offset.estimate ? time_offset.random_walk : 0.0;
+  imu.time_offset_rate_smoothing_s = time_offset.rate_smoothing_s;
   load_section(node, "zero_velocity", zero_velocity);
   load_section(node, "divergence", divergence);
   load_section(node, "recovery", recovery);

@@ -93,9 +93,19 @@ Eigen::Vector3d StateHistory::step_accel(const Entry& prev, const Eigen::Vector3
   return 0.5 * (prev.accel + next_accel);
 }
 
-ReadingChange StateHistory::step_change(const Entry& prev, const Eigen::Vector3d& next_gyro) {
+ReadingChange StateHistory::step_change(const Entry& prev, const Entry& next) {
   if (prev.coasting) return {};
-  return {next_gyro - prev.gyro};
+  return {next.gyro_smooth - prev.gyro_smooth};
+}
+
+Eigen::Vector3d StateHistory::smooth_gyro(double t, const Eigen::Vector3d& gyro) {
+  const double tau = noise_.time_offset_rate_smoothing_s;
+  const double dt = t - gyro_smooth_t_;
+  // The first sample, or one after a rewind, starts the low-pass at its own reading.
+  const double keep = tau > 0.0 && dt > 0.0 ? std::exp(-dt / tau) : 0.0;
+  gyro_smooth_ = keep * gyro_smooth_ + (1.0 - keep) * gyro;
+  gyro_smooth_t_ = t;
+  return gyro_smooth_;
 }
 
 void StateHistory::mark_newest_coasting() { entries_.back().coasting = true; }
@@ -103,7 +113,9 @@ void StateHistory::mark_newest_coasting() { entries_.back().coasting = true; }
 void StateHistory::reset(double t, const NavState& x, const StateCovariance& P, const ImuSample& held,
                          double rest_since) {
   entries_.clear();
-  entries_.push_back({t, x, P, held.gyro, held.accel, EntryStep{}, false});
+  entries_.push_back({t, x, P, held.gyro, held.accel, EntryStep{}, false, held.gyro});
+  gyro_smooth_ = held.gyro;
+  gyro_smooth_t_ = t;
   stale_from_ = entries_.size();
   last_correction_t_ = t;
   rest_since_ = rest_since < t ? rest_since : std::numeric_limits<double>::quiet_NaN();
@@ -112,6 +124,8 @@ void StateHistory::reset(double t, const NavState& x, const StateCovariance& P, 
 void StateHistory::assign(const std::vector<Entry>& entries, double last_correction_t) {
   rest_since_ = std::numeric_limits<double>::quiet_NaN();
   entries_.assign(entries.begin(), entries.end());
+  gyro_smooth_ = entries_.empty() ? Eigen::Vector3d::Zero() : entries_.back().gyro_smooth;
+  gyro_smooth_t_ = entries_.empty() ? std::numeric_limits<double>::quiet_NaN() : entries_.back().t;
   stale_from_ = entries_.size();
   last_correction_t_ = last_correction_t;
 }
@@ -123,7 +137,7 @@ void StateHistory::refresh_to(std::size_t k) const {
     cur.x = prev.x;
     cur.P = prev.P;
     propagate(cur.x, &cur.P, 0.5 * (prev.gyro + cur.gyro), step_accel(prev, cur.accel), cur.t - prev.t, noise_,
-              step_change(prev, cur.gyro));
+              step_change(prev, cur));
     cur.step.apply(cur.x, cur.P, prev.t, cur.t);
   }
 }
@@ -133,16 +147,18 @@ void StateHistory::add_imu(const ImuSample& imu) {
   if (dt > kSameTime) {
     if (stale_entries() <= kEagerRefresh) refresh_to(entries_.size() - 1);
     const bool fresh = stale_entries() == 0;
-    Entry next = entries_.back();  // a stale tail: the state is recomputed when read
-    if (fresh) {
-      propagate(next.x, &next.P, 0.5 * (next.gyro + imu.gyro), step_accel(next, imu.accel), dt, noise_,
-                step_change(next, imu.gyro));
-    }
+    const Entry& prev = entries_.back();
+    Entry next = prev;  // a stale tail: the state is recomputed when read
     next.coasting = false;
     next.t = imu.t;
     next.step = EntryStep{};
     next.gyro = imu.gyro;
     next.accel = imu.accel;
+    next.gyro_smooth = smooth_gyro(imu.t, imu.gyro);
+    if (fresh) {
+      propagate(next.x, &next.P, 0.5 * (prev.gyro + imu.gyro), step_accel(prev, imu.accel), dt, noise_,
+                step_change(prev, next));
+    }
     entries_.push_back(next);
     if (fresh) stale_from_ = entries_.size();
     trim();
@@ -151,6 +167,7 @@ void StateHistory::add_imu(const ImuSample& imu) {
     entries_.back().gyro = imu.gyro;
     entries_.back().accel = imu.accel;
     entries_.back().coasting = false;
+    entries_.back().gyro_smooth = smooth_gyro(imu.t, imu.gyro);
   }
 }
 

@@ -213,6 +213,7 @@ fuse_msgs::HistoryEntry to_msg(const StateHistory::Entry& e) {
   m.time_offset(e.x.td);
   m.gyro(v3(e.gyro));
   m.accel(v3(e.accel));
+  m.gyro_smooth(v3(e.gyro_smooth));
   m.coasting(e.coasting);
   if (!e.step.empty()) {
     m.step_q().assign(e.step.q.data(), e.step.q.data() + kStateDim);
@@ -241,6 +242,7 @@ StateHistory::Entry from_msg(const fuse_msgs::HistoryEntry& m) {
   require(std::isfinite(e.x.td) && std::abs(e.x.td) <= 1.0, "history_invalid", "time offset is not finite or beyond 1 s");
   e.gyro = finite_v3(m.gyro(), "history_invalid", "gyro");
   e.accel = finite_v3(m.accel(), "history_invalid", "accel");
+  e.gyro_smooth = finite_v3(m.gyro_smooth(), "history_invalid", "smoothed gyro");
   e.P = StateCovariance::Zero();
   e.coasting = m.coasting();
   if (!m.step_q().empty()) {

@@ -182,6 +182,10 @@ struct TimeOffsetConfig {
   /// else): a re-localised attitude is more confident than right, and the offset's coupling to
   /// the attitude would take up the difference (docs/architecture.md, "Across an IMU dropout").
   double hold_after_relocalisation_s = 1.0;
+  /// s: time constant of the low-pass of the gyro readings whose change ties the offset to the
+  /// attitude (StateHistory::Entry::gyro_smooth): the offset is seen in how the rate averaged
+  /// over tens of milliseconds changes, not in vibration faster than that. 0: raw readings.
+  double rate_smoothing_s = 0.05;
   void load(ConfigNode& node);
 };
 

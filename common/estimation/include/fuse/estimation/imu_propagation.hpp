@@ -25,6 +25,10 @@ struct ImuNoiseConfig {
   /// s/√s: random walk of the LiDAR-IMU time offset (not a key of this section: set from
   /// estimator.time_offset, 0 while the offset is not estimated, which keeps it fixed).
   double time_offset_random_walk = 0.0;
+  /// s: time constant of the low-pass of the gyro readings whose change ties the time offset to
+  /// the attitude (0: the raw readings). Not a key of this section: set from
+  /// estimator.time_offset.rate_smoothing_s (StateHistory::Entry::gyro_smooth).
+  double time_offset_rate_smoothing_s = 0.0;
   double fixed_position_std = 0.02;     ///< m
   double fixed_rotation_std = 0.005;    ///< rad
   double fixed_velocity_std = 0.1;      ///< m/s
@@ -35,7 +39,8 @@ struct ImuNoiseConfig {
   void load(ConfigNode& node);
 };
 
-/// How the gyro reading changed across a step (its last sample less its first). With the
+/// How the gyro reading changed across a step (its last sample less its first; the history
+/// passes its low-passed readings, StateHistory::Entry::gyro_smooth). With the
 /// LiDAR-IMU time offset t_d in the state, a step whose samples are placed δ too late reads
 /// ω(t − δ) ≈ ω(t) − ω̇δ, so the step's attitude error carries ∂δθ'/∂δt_d = J_r·Δω: the offset
 /// is seen where the rotation changes, through the propagated covariance. The velocity's term

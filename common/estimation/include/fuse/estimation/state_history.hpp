@@ -116,6 +116,14 @@ class StateHistory {
     /// gravity in this entry's attitude, computed whenever the step is propagated (so that a
     /// correction before the gap coasts from the corrected attitude), not the held `accel`.
     bool coasting = false;
+    /// The gyro readings up to this entry's, low-passed with time constant τ
+    /// (ImuNoiseConfig::time_offset_rate_smoothing_s), s_k = s_{k−1} + (1 − e^{−Δt/τ})(ω̃_k − s_{k−1}):
+    /// the rate whose change across a step ties the time offset to the attitude. An offset error
+    /// e shifts the rate integrated over a step by e times the change of the rate *averaged over
+    /// e*, not of the instantaneous rate: engine vibration at 25–40 Hz changes the raw reading
+    /// from sample to sample, but a shift of tens of milliseconds averages it out
+    /// (docs/architecture.md, "LiDAR-IMU time offset"). τ = 0: the raw reading.
+    Eigen::Vector3d gyro_smooth = Eigen::Vector3d::Zero();
   };
 
   StateHistory(const StateHistoryConfig& config, const ImuNoiseConfig& noise) : config_(config), noise_(noise) {}
@@ -194,8 +202,11 @@ class StateHistory {
   std::size_t find_at_or_before(double t) const;
   /// The specific force for the step from `prev` to an entry holding `next_accel`.
   static Eigen::Vector3d step_accel(const Entry& prev, const Eigen::Vector3d& next_accel);
-  /// How the gyro reading changed across the step from `prev` (nothing across a coasted step).
-  static ReadingChange step_change(const Entry& prev, const Eigen::Vector3d& next_gyro);
+  /// How the low-passed gyro reading changed across the step from `prev` to `next` (nothing
+  /// across a coasted step).
+  static ReadingChange step_change(const Entry& prev, const Entry& next);
+  /// Feeds an IMU sample at t into the low-pass of the readings (Entry::gyro_smooth).
+  Eigen::Vector3d smooth_gyro(double t, const Eigen::Vector3d& gyro);
   /// Marks every entry after index i stale (to be recomputed from entry i and the stored IMU).
   void repropagate_from(std::size_t i) { stale_from_ = std::min(stale_from_, i + 1); }
   /// Recomputes the stale entries up to index k (inclusive).
@@ -211,6 +222,10 @@ class StateHistory {
   double rest_since_ = std::numeric_limits<double>::quiet_NaN();
   mutable std::size_t stale_from_ = 1;  ///< index of the first stale entry; entries_.size() when none
   double last_correction_t_ = -1.0;
+  /// The low-pass of the gyro readings (Entry::gyro_smooth) after the newest IMU sample, and
+  /// that sample's time: entries inserted between samples (scan ends) do not advance it.
+  Eigen::Vector3d gyro_smooth_ = Eigen::Vector3d::Zero();
+  double gyro_smooth_t_ = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Interpolates two states on the manifold at fraction a ∈ [0,1] (slerp for rotations).
