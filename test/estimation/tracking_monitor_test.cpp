@@ -230,7 +230,8 @@ TEST(TrackingConfig, BadValuesAreRefusedNamingTheKey) {
 
 TEST(TimeOffsetConfig, BadValuesAreRefusedNamingTheKey) {
   expect_refused_naming_the_key<TimeOffsetConfig>({"max_s: 0", "initial_s: 0.5", "std_s: 0", "random_walk: -1",
-                                                   "hold_after_relocalisation_s: -1", "typo: 1"});
+                                                   "hold_after_relocalisation_s: -1", "rate_smoothing_s: -0.01",
+                                                   "rate_smoothing_s: 2", "typo: 1"});
 }
 
 }  // namespace
