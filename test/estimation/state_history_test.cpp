@@ -211,6 +211,50 @@ TEST(StateHistory, TimeOffsetColumnReadsTheSmoothedRate) {
   EXPECT_LT(err_smooth, 0.5 * err_raw) << "effect " << effect.transpose() << "\nraw " << raw.transpose();
 }
 
+// Entries inserted between samples (scan ends) do not advance the rate's low-pass: a history
+// with scan entries holds the same low-passed readings at every sample, and the same time
+// offset column at its newest entry, as one without; a second sample at the same instant
+// leaves the low-pass as it was.
+TEST(StateHistory, ScanEntriesDoNotAdvanceTheRateLowPass) {
+  ImuNoiseConfig noise;
+  noise.time_offset_rate_smoothing_s = 0.05;
+  const auto history = [&]() {
+    StateHistory h(StateHistoryConfig{5.0}, noise);
+    StateCovariance P = initial_P();
+    P(Idx::kTimeOffset, Idx::kTimeOffset) = 4e-4;
+    h.reset(kT0, NavState{}, P, imu_at(kT0));
+    return h;
+  };
+  StateHistory plain = history(), with_scans = history();
+  for (int k = 1; k <= 40; ++k) {
+    if (k % 10 == 3) {
+      ASSERT_TRUE(with_scans.ensure_entry(kT0 + (k - 0.6) * kDt));  // after the newest sample
+    }
+    plain.add_imu(imu_at(kT0 + k * kDt));
+    with_scans.add_imu(imu_at(kT0 + k * kDt));
+    if (k % 10 == 7) {
+      ASSERT_TRUE(with_scans.ensure_entry(kT0 + (k - 0.3) * kDt));  // between two samples
+    }
+  }
+  EXPECT_GT(with_scans.size(), plain.size());
+  for (int k = 0; k <= 40; ++k) {
+    const double t = kT0 + k * kDt;
+    const auto a = plain.entries_between(t, t), b = with_scans.entries_between(t, t);
+    ASSERT_FALSE(a.empty() || b.empty());
+    EXPECT_EQ(a.back()->gyro_smooth, b.back()->gyro_smooth) << "sample " << k;
+  }
+  // The attitude's column: the same up to the split's own integration (the held reading over
+  // the first part of a split step), far from the double count a split advancing it would give.
+  const Eigen::Vector3d col = plain.newest().P.block<3, 1>(Idx::kRot, Idx::kTimeOffset);
+  const Eigen::Vector3d col_scans = with_scans.newest().P.block<3, 1>(Idx::kRot, Idx::kTimeOffset);
+  EXPECT_LT((col - col_scans).norm(), 0.02 * col.norm()) << col.transpose() << "\n" << col_scans.transpose();
+  const Eigen::Vector3d before = plain.newest().gyro_smooth;
+  ImuSample again = imu_at(plain.newest().t);
+  again.gyro += Eigen::Vector3d(0.5, -0.5, 0.5);
+  plain.add_imu(again);
+  EXPECT_EQ(plain.newest().gyro_smooth, before);
+}
+
 // A scan time between IMU samples: inserting the entry when the scan arrives before the next IMU
 // sample (extrapolation, then add_imu) gives the same history as when the IMU sample arrives first
 // (add_imu, then ensure_entry splitting the step). Both hold the older sample up to the scan time.

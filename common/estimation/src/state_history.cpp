@@ -101,10 +101,13 @@ ReadingChange StateHistory::step_change(const Entry& prev, const Entry& next) {
 Eigen::Vector3d StateHistory::smooth_gyro(double t, const Eigen::Vector3d& gyro) {
   const double tau = noise_.time_offset_rate_smoothing_s;
   const double dt = t - gyro_smooth_t_;
-  // The first sample, or one after a rewind, starts the low-pass at its own reading.
-  const double keep = tau > 0.0 && dt > 0.0 ? std::exp(-dt / tau) : 0.0;
-  gyro_smooth_ = keep * gyro_smooth_ + (1.0 - keep) * gyro;
-  gyro_smooth_t_ = t;
+  if (std::isnan(dt) || tau <= 0.0) {
+    gyro_smooth_ = gyro;  // the first sample starts the low-pass at its reading; τ = 0: raw
+  } else if (dt > 0.0) {
+    const double keep = std::exp(-dt / tau);
+    gyro_smooth_ = keep * gyro_smooth_ + (1.0 - keep) * gyro;
+  }  // a second sample at the same instant leaves it (it has had its time)
+  gyro_smooth_t_ = std::isnan(dt) || dt > 0.0 ? t : gyro_smooth_t_;
   return gyro_smooth_;
 }
 
