@@ -98,16 +98,17 @@ ReadingChange StateHistory::step_change(const Entry& prev, const Entry& next) {
   return {next.gyro_smooth - prev.gyro_smooth};
 }
 
-Eigen::Vector3d StateHistory::smooth_gyro(double t, const Eigen::Vector3d& gyro) {
+Eigen::Vector3d StateHistory::smooth_gyro(double t, double td, const Eigen::Vector3d& gyro) {
   const double tau = noise_.time_offset_rate_smoothing_s;
-  const double dt = t - gyro_smooth_t_;
+  const double stamp = t + td;
+  const double dt = stamp - gyro_smooth_stamp_;
   if (std::isnan(dt) || tau <= 0.0) {
     gyro_smooth_ = gyro;  // the first sample starts the low-pass at its reading; τ = 0: raw
   } else if (dt > 0.0) {
     const double keep = std::exp(-dt / tau);
     gyro_smooth_ = keep * gyro_smooth_ + (1.0 - keep) * gyro;
   }  // a second sample at the same instant leaves it (it has had its time)
-  gyro_smooth_t_ = std::isnan(dt) || dt > 0.0 ? t : gyro_smooth_t_;
+  gyro_smooth_stamp_ = std::isnan(dt) || dt > 0.0 ? stamp : gyro_smooth_stamp_;
   return gyro_smooth_;
 }
 
@@ -118,7 +119,7 @@ void StateHistory::reset(double t, const NavState& x, const StateCovariance& P, 
   entries_.clear();
   entries_.push_back({t, x, P, held.gyro, held.accel, EntryStep{}, false, held.gyro});
   gyro_smooth_ = held.gyro;
-  gyro_smooth_t_ = t;
+  gyro_smooth_stamp_ = t + x.td;
   stale_from_ = entries_.size();
   last_correction_t_ = t;
   rest_since_ = rest_since < t ? rest_since : std::numeric_limits<double>::quiet_NaN();
@@ -128,7 +129,8 @@ void StateHistory::assign(const std::vector<Entry>& entries, double last_correct
   rest_since_ = std::numeric_limits<double>::quiet_NaN();
   entries_.assign(entries.begin(), entries.end());
   gyro_smooth_ = entries_.empty() ? Eigen::Vector3d::Zero() : entries_.back().gyro_smooth;
-  gyro_smooth_t_ = entries_.empty() ? std::numeric_limits<double>::quiet_NaN() : entries_.back().t;
+  gyro_smooth_stamp_ =
+      entries_.empty() ? std::numeric_limits<double>::quiet_NaN() : entries_.back().t + entries_.back().x.td;
   stale_from_ = entries_.size();
   last_correction_t_ = last_correction_t;
 }
@@ -146,6 +148,7 @@ void StateHistory::refresh_to(std::size_t k) const {
 }
 
 void StateHistory::add_imu(const ImuSample& imu) {
+  const double placed_with = time_offset();  // the offset the caller placed the sample with
   const double dt = imu.t - entries_.back().t;
   if (dt > kSameTime) {
     if (stale_entries() <= kEagerRefresh) refresh_to(entries_.size() - 1);
@@ -157,7 +160,7 @@ void StateHistory::add_imu(const ImuSample& imu) {
     next.step = EntryStep{};
     next.gyro = imu.gyro;
     next.accel = imu.accel;
-    next.gyro_smooth = smooth_gyro(imu.t, imu.gyro);
+    next.gyro_smooth = smooth_gyro(imu.t, placed_with, imu.gyro);
     if (fresh) {
       propagate(next.x, &next.P, 0.5 * (prev.gyro + imu.gyro), step_accel(prev, imu.accel), dt, noise_,
                 step_change(prev, next));
@@ -170,7 +173,7 @@ void StateHistory::add_imu(const ImuSample& imu) {
     entries_.back().gyro = imu.gyro;
     entries_.back().accel = imu.accel;
     entries_.back().coasting = false;
-    entries_.back().gyro_smooth = smooth_gyro(imu.t, imu.gyro);
+    entries_.back().gyro_smooth = smooth_gyro(imu.t, placed_with, imu.gyro);
   }
 }
 

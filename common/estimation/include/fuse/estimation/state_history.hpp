@@ -205,8 +205,9 @@ class StateHistory {
   /// How the low-passed gyro reading changed across the step from `prev` to `next` (nothing
   /// across a coasted step).
   static ReadingChange step_change(const Entry& prev, const Entry& next);
-  /// Feeds an IMU sample at t into the low-pass of the readings (Entry::gyro_smooth).
-  Eigen::Vector3d smooth_gyro(double t, const Eigen::Vector3d& gyro);
+  /// Feeds an IMU sample placed at t with time offset td (its stamp is t + td) into the low-pass
+  /// of the readings (Entry::gyro_smooth).
+  Eigen::Vector3d smooth_gyro(double t, double td, const Eigen::Vector3d& gyro);
   /// Marks every entry after index i stale (to be recomputed from entry i and the stored IMU).
   void repropagate_from(std::size_t i) { stale_from_ = std::min(stale_from_, i + 1); }
   /// Recomputes the stale entries up to index k (inclusive).
@@ -223,9 +224,12 @@ class StateHistory {
   mutable std::size_t stale_from_ = 1;  ///< index of the first stale entry; entries_.size() when none
   double last_correction_t_ = -1.0;
   /// The low-pass of the gyro readings (Entry::gyro_smooth) after the newest IMU sample, and
-  /// that sample's time: entries inserted between samples (scan ends) do not advance it.
+  /// that sample's stamp on the IMU's clock (placed time + the offset it was placed with): it
+  /// steps by the samples' own spacing, whatever offset each was placed with and however a
+  /// correction moved them since (a late scan gives the numbers of an on-time one). Entries
+  /// inserted between samples (scan ends) do not advance it.
   Eigen::Vector3d gyro_smooth_ = Eigen::Vector3d::Zero();
-  double gyro_smooth_t_ = std::numeric_limits<double>::quiet_NaN();
+  double gyro_smooth_stamp_ = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Interpolates two states on the manifold at fraction a ∈ [0,1] (slerp for rotations).
