@@ -185,7 +185,7 @@ struct TimeOffsetConfig {
   /// s: time constant of the low-pass of the gyro readings whose change ties the offset to the
   /// attitude (StateHistory::Entry::gyro_smooth): the offset is seen in how the rate averaged
   /// over tens of milliseconds changes, not in vibration faster than that. 0: raw readings.
-  double rate_smoothing_s = 0.05;
+  double rate_smoothing_s = 0.0;
   void load(ConfigNode& node);
 };
 
